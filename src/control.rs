@@ -1,0 +1,197 @@
+//! Step-size control: tolerances, the weighted RMS error norm, Hairer's PI
+//! controller and Hairer's initial step (HNW ODE I §II.4, `dopri5.f` DOPCOR/HINIT).
+
+use crate::error::{Error, Result};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// A tolerance, one value for every component or one per component.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Tolerance {
+    /// The same value for every component.
+    Scalar(f64),
+    /// One value per component (length must equal the state dimension).
+    PerComponent(Vec<f64>),
+}
+
+impl From<f64> for Tolerance {
+    fn from(v: f64) -> Self {
+        Tolerance::Scalar(v)
+    }
+}
+
+impl From<Vec<f64>> for Tolerance {
+    fn from(v: Vec<f64>) -> Self {
+        Tolerance::PerComponent(v)
+    }
+}
+
+impl Tolerance {
+    /// Expand to one value per component, checking sign and length.
+    pub(crate) fn expand<D: Dim>(&self, what: &'static str, dim: D) -> Result<OVector<f64, D>>
+    where
+        DefaultAllocator: Allocator<D>,
+    {
+        let n = dim.value();
+        let v = match self {
+            Tolerance::Scalar(a) => OVector::<f64, D>::from_element_generic(dim, nalgebra::U1, *a),
+            Tolerance::PerComponent(v) => {
+                if v.len() != n {
+                    return Err(Error::invalid(
+                        what,
+                        format!("{} values given for a state of {} components", v.len(), n),
+                    ));
+                }
+                OVector::<f64, D>::from_iterator_generic(dim, nalgebra::U1, v.iter().copied())
+            }
+        };
+        if let Some(bad) = v.iter().find(|a| !(a.is_finite() && **a >= 0.0)) {
+            return Err(Error::invalid(what, format!("must be finite and non-negative, got {bad}")));
+        }
+        Ok(v)
+    }
+}
+
+/// Tolerances expanded to the state dimension.
+#[derive(Debug, Clone)]
+pub struct Weights<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Relative tolerance per component.
+    pub rtol: OVector<f64, D>,
+    /// Absolute tolerance per component.
+    pub atol: OVector<f64, D>,
+}
+
+impl<D: Dim> Weights<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// RMS norm `sqrt(1/n Σ (e_i / (atol_i + rtol_i·max(|x0_i|, |x1_i|)))²)`.
+    ///
+    /// ```
+    /// use reckon::control::Weights;
+    /// use nalgebra::vector;
+    /// let w = Weights { rtol: vector![0.0, 0.0], atol: vector![1.0, 2.0] };
+    /// let e = w.norm(&vector![3.0, 8.0], &vector![0.0, 0.0], &vector![0.0, 0.0]);
+    /// assert!((e - (12.5f64).sqrt()).abs() < 1e-15); // sqrt((9 + 16)/2)
+    /// ```
+    #[inline]
+    pub fn norm(&self, e: &OVector<f64, D>, x0: &OVector<f64, D>, x1: &OVector<f64, D>) -> f64 {
+        let mut s = 0.0;
+        for i in 0..e.len() {
+            let sk = self.atol[i] + self.rtol[i] * x0[i].abs().max(x1[i].abs());
+            let r = e[i] / sk;
+            s += r * r;
+        }
+        (s / e.len().max(1) as f64).sqrt()
+    }
+
+    /// Scale of component `i` at state `x`: `atol_i + rtol_i·|x_i|`.
+    #[inline]
+    pub fn scale(&self, i: usize, x: f64) -> f64 {
+        self.atol[i] + self.rtol[i] * x.abs()
+    }
+}
+
+/// Hairer's PI ("Lund-stabilised") controller from `dopri5.f`:
+/// `h_new = h·min(max_factor, max(min_factor, safety·err^(−α)·err_old^β))`,
+/// `α = 1/(q+1) − 0.75β` for an error estimator of order `q`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Controller {
+    /// Safety factor (0.9).
+    pub safety: f64,
+    /// Smallest step ratio (0.2).
+    pub min_factor: f64,
+    /// Largest step ratio (10).
+    pub max_factor: f64,
+    /// PI memory exponent β (0.04 for DP5; 0 gives a plain I controller).
+    pub beta: f64,
+    /// Exponent α applied to the current error.
+    pub alpha: f64,
+    err_old: f64,
+}
+
+impl Controller {
+    /// Hairer's defaults for an error estimator of order `q` with PI exponent `beta`.
+    ///
+    /// ```
+    /// let c = reckon::control::Controller::new(4, 0.04);
+    /// assert!((c.alpha - 0.17).abs() < 1e-15); // 1/5 − 0.75·0.04
+    /// ```
+    pub fn new(q: u32, beta: f64) -> Self {
+        Controller {
+            safety: 0.9,
+            min_factor: 0.2,
+            max_factor: 10.0,
+            beta,
+            alpha: 1.0 / (q as f64 + 1.0) - 0.75 * beta,
+            err_old: 1e-4,
+        }
+    }
+
+    /// Factor for the next step after an accepted step with error `err ≤ 1`.
+    #[inline]
+    pub fn accept(&mut self, err: f64) -> f64 {
+        let fac = err.powf(self.alpha) / self.err_old.powf(self.beta) / self.safety;
+        let fac = fac.clamp(1.0 / self.max_factor, 1.0 / self.min_factor);
+        self.err_old = err.max(1e-4);
+        1.0 / fac
+    }
+
+    /// Factor for the retry after a rejected step with error `err > 1`.
+    #[inline]
+    pub fn reject(&self, err: f64) -> f64 {
+        let fac = err.powf(self.alpha) / self.safety;
+        1.0 / fac.min(1.0 / self.min_factor)
+    }
+}
+
+/// Hairer's initial step (HINIT): `h₀ = 0.01·‖x₀‖/‖f₀‖`, one explicit Euler
+/// probe for the second derivative, then `h = min(100|h₀|, (0.01/max(‖f'‖,‖f₀‖))^(1/iord), h_max)`.
+/// Norms are the unscaled Euclidean sums of `dopri5.f` (not RMS, see REFERENCES §4.4).
+/// `f1` receives `f(t0 + h₀, x0 + h₀ f0)`; `probe` is scratch.
+#[allow(clippy::too_many_arguments)]
+pub fn initial_step<D: Dim>(
+    w: &Weights<D>,
+    x0: &OVector<f64, D>,
+    f0: &OVector<f64, D>,
+    iord: u32,
+    h_max: f64,
+    dir: f64,
+    probe: &mut OVector<f64, D>,
+    mut f1: impl FnMut(f64, &OVector<f64, D>) -> Result<OVector<f64, D>>,
+) -> Result<f64>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let n = x0.len();
+    let (mut dnf, mut dny) = (0.0, 0.0);
+    for i in 0..n {
+        let sk = w.scale(i, x0[i]);
+        dnf += (f0[i] / sk).powi(2);
+        dny += (x0[i] / sk).powi(2);
+    }
+    let mut h = if dnf <= 1e-10 || dny <= 1e-10 {
+        1e-6
+    } else {
+        0.01 * (dny / dnf).sqrt()
+    };
+    h = h.min(h_max);
+    probe.copy_from(x0);
+    probe.axpy(dir * h, f0, 1.0);
+    let f1 = f1(dir * h, probe)?;
+    let mut der2 = 0.0;
+    for i in 0..n {
+        der2 += ((f1[i] - f0[i]) / w.scale(i, x0[i])).powi(2);
+    }
+    let der2 = der2.sqrt() / h;
+    let der12 = der2.abs().max(dnf.sqrt());
+    let h1 = if der12 <= 1e-15 {
+        (h * 1e-3).max(1e-6)
+    } else {
+        (0.01 / der12).powf(1.0 / iord as f64)
+    };
+    Ok((100.0 * h).min(h1).min(h_max))
+}

@@ -1,0 +1,21 @@
+pub mod control;
+pub mod controls;
+pub mod error;
+pub mod events;
+pub mod integrator;
+pub mod linalg;
+pub mod methods;
+pub mod models;
+pub mod options;
+pub mod solution;
+pub mod system;
+
+pub use controls::Controls;
+pub use error::{Error, Result};
+pub use events::{Direction, Event};
+pub use integrator::{Integrator, Problem};
+pub use options::{Options, StepSize};
+pub use solution::{Solution, Stats};
+pub use system::{ClosureModel, System};
+pub use nalgebra;
+pub use num_dual;

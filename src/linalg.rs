@@ -1,0 +1,80 @@
+//! LU factorisation of the Newton iteration matrix `M = I − h·J`, chosen by the
+//! state dimension: nalgebra's stack-allocated LU for fixed sizes (`Const<N>`),
+//! faer's partial-pivoting LU for dynamic sizes (`Dyn`).
+
+use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, OVector, SMatrix, SVector};
+
+/// A factorisation of a square matrix that can solve `M·y = b` in place.
+pub trait Lu<D: nalgebra::Dim>: Sized
+where
+    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D> + nalgebra::allocator::Allocator<D, D>,
+{
+    /// Factor `m`; `None` when it is singular or has non-finite pivots.
+    fn factor(m: &OMatrix<f64, D, D>) -> Option<Self>;
+    /// `b ← M⁻¹·b`.
+    fn solve_in_place(&self, b: &mut OVector<f64, D>);
+}
+
+/// Dimensions that know their LU backend.
+pub trait LuDim: nalgebra::Dim
+where
+    nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<Self> + nalgebra::allocator::Allocator<Self, Self>,
+{
+    /// The factorisation used for this dimension.
+    type Lu: Lu<Self>;
+}
+
+/// nalgebra's LU with partial pivoting, on the stack (no allocation).
+pub struct FixedLu<const N: usize>(nalgebra::linalg::LU<f64, Const<N>, Const<N>>)
+where
+    Const<N>: nalgebra::DimMin<Const<N>, Output = Const<N>>;
+
+/// nalgebra's LU needs `Const<N>: DimMin`, which exists for concrete sizes only,
+/// so the fixed-size backend is instantiated for states of 1 to 32 components
+/// (larger systems use `DVector` and faer).
+macro_rules! fixed_lu {
+    ($($n:literal)*) => {$(
+        impl Lu<Const<$n>> for FixedLu<$n> {
+            fn factor(m: &SMatrix<f64, $n, $n>) -> Option<Self> {
+                let lu = nalgebra::linalg::LU::new(*m);
+                let u = lu.u();
+                let ok = (0..$n).all(|i| u[(i, i)] != 0.0 && u[(i, i)].is_finite());
+                ok.then_some(FixedLu(lu))
+            }
+            fn solve_in_place(&self, b: &mut SVector<f64, $n>) {
+                self.0.solve_mut(b);
+            }
+        }
+        impl LuDim for Const<$n> {
+            type Lu = FixedLu<$n>;
+        }
+    )*};
+}
+fixed_lu!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31 32);
+
+/// faer's LU with partial pivoting, for large dynamic systems.
+pub struct DynLu(faer::linalg::solvers::PartialPivLu<f64>);
+
+impl Lu<Dyn> for DynLu {
+    fn factor(m: &DMatrix<f64>) -> Option<Self> {
+        let (r, c) = m.shape();
+        let view = faer::MatRef::from_column_major_slice(m.as_slice(), r, c);
+        let lu = view.partial_piv_lu();
+        let u = lu.U();
+        let ok = (0..r.min(c)).all(|i| {
+            let d = u[(i, i)];
+            d != 0.0 && d.is_finite()
+        });
+        ok.then_some(DynLu(lu))
+    }
+    fn solve_in_place(&self, b: &mut DVector<f64>) {
+        use faer::linalg::solvers::Solve;
+        let n = b.len();
+        let rhs = faer::MatMut::from_column_major_slice_mut(b.as_mut_slice(), n, 1);
+        self.0.solve_in_place(rhs);
+    }
+}
+
+impl LuDim for Dyn {
+    type Lu = DynLu;
+}

@@ -1,0 +1,243 @@
+//! Dormand–Prince 5(4) (Dormand & Prince 1980; Hairer–Nørsett–Wanner, ODE I §II.5,
+//! `dopri5.f`): seven stages with FSAL, embedded 4th-order estimate, Shampine's
+//! 4th-order dense output, and Hairer's stiffness test.
+
+use super::{Method, Outcome, lincomb};
+use crate::control::{Controller, Weights};
+use crate::error::Result;
+use crate::system::{Eval, System};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// The Butcher tableau as the paper prints it.
+pub mod tableau {
+    /// Nodes `c`.
+    pub const C: [f64; 7] = [0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0];
+    /// Coefficients `a_ij` (row `i`, lower triangle).
+    pub const A: [[f64; 6]; 7] = [
+        [0.0; 6],
+        [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
+        [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
+        [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0, 0.0],
+        [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
+        [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
+    ];
+    /// 5th-order weights `b` (= last row of `A`: FSAL).
+    pub const B: [f64; 7] = [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0, 0.0];
+    /// Embedded 4th-order weights `b̂`.
+    pub const B_HAT: [f64; 7] = [
+        5179.0 / 57600.0,
+        0.0,
+        7571.0 / 16695.0,
+        393.0 / 640.0,
+        -92097.0 / 339200.0,
+        187.0 / 2100.0,
+        1.0 / 40.0,
+    ];
+    /// Error weights `e = b − b̂` (Hairer's sign).
+    pub const E: [f64; 7] = [
+        71.0 / 57600.0,
+        0.0,
+        -71.0 / 16695.0,
+        71.0 / 1920.0,
+        -17253.0 / 339200.0,
+        22.0 / 525.0,
+        -1.0 / 40.0,
+    ];
+    /// Shampine's dense-output weights `d` (Hairer's CONTD5 `r5 = h Σ d_i k_i`).
+    pub const D: [f64; 7] = [
+        -12715105075.0 / 11282082432.0,
+        0.0,
+        87487479700.0 / 32700410799.0,
+        -10690763975.0 / 1880347072.0,
+        701980252875.0 / 199316789632.0,
+        -1453857185.0 / 822651844.0,
+        69997945.0 / 29380423.0,
+    ];
+}
+
+use tableau::{A, C, D as DW, E};
+
+/// Dormand–Prince 5(4): `x₁ = x₀ + h Σ bᵢ kᵢ`, error `h Σ eᵢ kᵢ`, FSAL (`k₇ = f(t₁, x₁)`
+/// is the next step's `k₁`), six new `f` evaluations per step.
+///
+/// ```
+/// use reckon::{model, methods::Dopri5, Options, Problem};
+/// use nalgebra::vector;
+/// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+/// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
+/// assert!((sol.last().1[0] - (-1.0f64).exp()).abs() < 1e-10);
+/// ```
+#[derive(Debug, Clone)]
+pub struct Dopri5<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    k: Vec<OVector<f64, D>>,
+    y: Option<OVector<f64, D>>,
+    y6: Option<OVector<f64, D>>,
+    err: Option<OVector<f64, D>>,
+    fsal: bool,
+}
+
+impl<D: Dim> Dopri5<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// A fresh stepper (work space is allocated by the integrator's setup).
+    pub fn new() -> Self {
+        Dopri5 {
+            k: Vec::new(),
+            y: None,
+            y6: None,
+            err: None,
+            fsal: false,
+        }
+    }
+}
+
+impl<D: Dim> Default for Dopri5<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<D: Dim> Method<D> for Dopri5<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn name(&self) -> &'static str {
+        "rk45"
+    }
+    fn order(&self) -> u32 {
+        5
+    }
+    fn error_order(&self) -> Option<u32> {
+        Some(4)
+    }
+    fn controller(&self) -> Controller {
+        Controller::new(4, 0.04)
+    }
+    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()> {
+        self.k = vec![x0.clone(); 7];
+        self.y = Some(x0.clone());
+        self.y6 = Some(x0.clone());
+        self.err = Some(x0.clone());
+        f.rhs(t0, x0, &mut self.k[0])?;
+        self.fsal = true;
+        Ok(())
+    }
+    fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
+        self.fsal.then(|| &self.k[0])
+    }
+    #[inline]
+    fn step<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t: f64,
+        x: &OVector<f64, D>,
+        h: f64,
+        x_new: &mut OVector<f64, D>,
+        w: &Weights<D>,
+        adaptive: bool,
+    ) -> Result<Outcome> {
+        let (Some(y), Some(y6), Some(err)) = (self.y.as_mut(), self.y6.as_mut(), self.err.as_mut()) else {
+            return Err(crate::Error::invalid("method", "Dopri5::step called before init"));
+        };
+        let [k1, k2, k3, k4, k5, k6, k7] = &mut self.k[..] else {
+            return Err(crate::Error::invalid("method", "Dopri5::step called before init"));
+        };
+        if !self.fsal {
+            f.rhs(t, x, k1)?;
+            self.fsal = true;
+        }
+        lincomb(y, x, h, [(A[1][0], &*k1)]);
+        f.rhs(t + C[1] * h, y, k2)?;
+        lincomb(y, x, h, [(A[2][0], &*k1), (A[2][1], &*k2)]);
+        f.rhs(t + C[2] * h, y, k3)?;
+        lincomb(y, x, h, [(A[3][0], &*k1), (A[3][1], &*k2), (A[3][2], &*k3)]);
+        f.rhs(t + C[3] * h, y, k4)?;
+        lincomb(y, x, h, [(A[4][0], &*k1), (A[4][1], &*k2), (A[4][2], &*k3), (A[4][3], &*k4)]);
+        f.rhs(t + C[4] * h, y, k5)?;
+        lincomb(
+            y6,
+            x,
+            h,
+            [(A[5][0], &*k1), (A[5][1], &*k2), (A[5][2], &*k3), (A[5][3], &*k4), (A[5][4], &*k5)],
+        );
+        f.rhs(t + h, y6, k6)?;
+        lincomb(
+            x_new,
+            x,
+            h,
+            [(A[6][0], &*k1), (A[6][2], &*k3), (A[6][3], &*k4), (A[6][4], &*k5), (A[6][5], &*k6)],
+        );
+        f.rhs(t + h, x_new, k7)?;
+        if !adaptive {
+            return Ok(Outcome::Done { err: 0.0 });
+        }
+        lincomb_err(err, h, [(E[0], &*k1), (E[2], &*k3), (E[3], &*k4), (E[4], &*k5), (E[5], &*k6), (E[6], &*k7)]);
+        Ok(Outcome::Done { err: w.norm(err, x, x_new) })
+    }
+    fn accept(&mut self) {
+        self.k.swap(0, 6);
+    }
+    fn reset(&mut self) {
+        self.fsal = false;
+    }
+    fn dense_len(&self) -> usize {
+        5
+    }
+    /// `x(t + θh) = r₁ + θ(r₂ + (1−θ)(r₃ + θ(r₄ + (1−θ)r₅)))` (Hairer's CONTD5), stored in
+    /// powers of θ: `c₀ = r₁, c₁ = r₂ + r₃, c₂ = r₄ + r₅ − r₃, c₃ = −r₄ − 2r₅, c₄ = r₅`.
+    fn dense<S: System<D>>(
+        &mut self,
+        _f: &mut Eval<'_, D, S>,
+        _t: f64,
+        h: f64,
+        x: &OVector<f64, D>,
+        x_new: &OVector<f64, D>,
+        c: &mut [OVector<f64, D>],
+    ) -> Result<()> {
+        let k = &self.k;
+        for i in 0..x.len() {
+            let r1 = x[i];
+            let r2 = x_new[i] - x[i];
+            let r3 = h * k[0][i] - r2;
+            let r4 = r2 - h * k[6][i] - r3;
+            let r5 = h * (0..7).map(|j| DW[j] * k[j][i]).sum::<f64>();
+            c[0][i] = r1;
+            c[1][i] = r2 + r3;
+            c[2][i] = r4 + r5 - r3;
+            c[3][i] = -r4 - 2.0 * r5;
+            c[4][i] = r5;
+        }
+        Ok(())
+    }
+    /// Hairer's test `h·λ ≈ |h|·‖k₇ − k₆‖ / ‖x₁ − y₆‖` (both stages at `t + h`).
+    fn stiffness(&self, h: f64, x_new: &OVector<f64, D>) -> Option<f64> {
+        let y6 = self.y6.as_ref()?;
+        let num = (&self.k[6] - &self.k[5]).norm();
+        let den = (x_new - y6).norm();
+        (den > 0.0).then(|| h.abs() * num / den)
+    }
+}
+
+#[inline(always)]
+fn lincomb_err<D: Dim, const K: usize>(out: &mut OVector<f64, D>, h: f64, terms: [(f64, &OVector<f64, D>); K])
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let o = out.as_mut_slice();
+    for (i, oi) in o.iter_mut().enumerate() {
+        let mut s = 0.0;
+        for (a, k) in terms.iter() {
+            s += a * k[i];
+        }
+        *oi = h * s;
+    }
+}

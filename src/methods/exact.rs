@@ -1,0 +1,114 @@
+//! Exact flow maps: for models whose flow over a step with held inputs is known in
+//! closed form, `x(t + h) = φ_h(t, x, u)` is the step itself.
+
+use super::{Method, Outcome};
+use crate::control::Weights;
+use crate::error::{Quantity, Result};
+use crate::system::{Eval, System, finite};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// A closed-form flow `out ← φ_h(t, x, u)` of `x' = f(t, x, u)` with `u` held.
+///
+/// Any `Fn(f64, &OVector, &[f64], f64) -> OVector` is a `Flow`.
+pub trait Flow<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// `out ← φ_h(t, x, u)`.
+    fn flow(&self, t: f64, x: &OVector<f64, D>, u: &[f64], h: f64, out: &mut OVector<f64, D>);
+}
+
+impl<D: Dim, F> Flow<D> for F
+where
+    F: Fn(f64, &OVector<f64, D>, &[f64], f64) -> OVector<f64, D>,
+    DefaultAllocator: Allocator<D>,
+{
+    fn flow(&self, t: f64, x: &OVector<f64, D>, u: &[f64], h: f64, out: &mut OVector<f64, D>) {
+        *out = self(t, x, u, h);
+    }
+}
+
+/// The exact method: `x₁ = φ_h(t₀, x₀, u)`. Error-free up to rounding for any `h`, so it
+/// takes one step per control interval unless a fixed step asks for a finer grid.
+/// Dense output is the cubic Hermite interpolant through both ends (two `f` calls).
+///
+/// ```
+/// use reckon::{methods::Exact, models::unicycle, Options, Problem, Controls};
+/// use nalgebra::vector;
+/// let controls = Controls::new(vec![0.0, 2.0], vec![vec![1.0, 0.0], vec![0.0, 0.0]]).unwrap();
+/// let sol = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 2.0))
+///     .controls(controls)
+///     .solve(Exact::new(unicycle::flow), &Options::default())
+///     .unwrap();
+/// assert_eq!(sol.last().1, vector![2.0, 0.0, 0.0]); // straight line at v = 1
+/// ```
+#[derive(Debug, Clone)]
+pub struct Exact<F> {
+    flow: F,
+}
+
+impl<F> Exact<F> {
+    /// Wrap a flow map.
+    pub fn new(flow: F) -> Self {
+        Exact { flow }
+    }
+}
+
+impl<D: Dim, F: Flow<D>> Method<D> for Exact<F>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn name(&self) -> &'static str {
+        "exact"
+    }
+    fn order(&self) -> u32 {
+        u32::MAX
+    }
+    fn error_order(&self) -> Option<u32> {
+        None
+    }
+    fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, _x0: &OVector<f64, D>) -> Result<()> {
+        Ok(())
+    }
+    fn step<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t: f64,
+        x: &OVector<f64, D>,
+        h: f64,
+        x_new: &mut OVector<f64, D>,
+        _w: &Weights<D>,
+        _adaptive: bool,
+    ) -> Result<Outcome> {
+        self.flow.flow(t, x, &f.u, h, x_new);
+        finite(x_new.as_slice(), t + h, Quantity::State)?;
+        Ok(Outcome::Done { err: 0.0 })
+    }
+    fn dense_len(&self) -> usize {
+        4
+    }
+    /// Cubic Hermite: `c₀ = x₀, c₁ = h f₀, c₂ = 3Δ − 2h f₀ − h f₁, c₃ = −2Δ + h f₀ + h f₁`, `Δ = x₁ − x₀`.
+    fn dense<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t: f64,
+        h: f64,
+        x: &OVector<f64, D>,
+        x_new: &OVector<f64, D>,
+        c: &mut [OVector<f64, D>],
+    ) -> Result<()> {
+        let (c01, c23) = c.split_at_mut(2);
+        f.rhs(t, x, &mut c01[1])?;
+        f.rhs(t + h, x_new, &mut c23[1])?;
+        for i in 0..x.len() {
+            let d = x_new[i] - x[i];
+            let (f0, f1) = (h * c01[1][i], h * c23[1][i]);
+            c01[0][i] = x[i];
+            c01[1][i] = f0;
+            c23[0][i] = 3.0 * d - 2.0 * f0 - f1;
+            c23[1][i] = -2.0 * d + f0 + f1;
+        }
+        Ok(())
+    }
+}

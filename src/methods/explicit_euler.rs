@@ -1,0 +1,58 @@
+//! Explicit (forward) Euler, the first-order one-stage Runge–Kutta method.
+
+use super::{Method, Outcome};
+use crate::control::Weights;
+use crate::error::Result;
+use crate::system::{Eval, System};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// Explicit Euler: `x₁ = x₀ + h·f(t₀, x₀)`, order 1, fixed step only (no error estimate).
+///
+/// ```
+/// use reckon::{model, methods::ExplicitEuler, Options, Problem, StepSize};
+/// use nalgebra::vector;
+/// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+/// let sol = Problem::new(&f, vector![1.0], (0.0, 0.1))
+///     .solve(ExplicitEuler, &Options::default().step(StepSize::Fixed(0.1)))
+///     .unwrap();
+/// assert_eq!(sol.last().1[0], 0.9); // 1 − 0.1·1
+/// ```
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ExplicitEuler;
+
+impl<D: Dim> Method<D> for ExplicitEuler
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn name(&self) -> &'static str {
+        "euler"
+    }
+    fn order(&self) -> u32 {
+        1
+    }
+    fn error_order(&self) -> Option<u32> {
+        None
+    }
+    fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, _x0: &OVector<f64, D>) -> Result<()> {
+        Ok(())
+    }
+    #[inline]
+    fn step<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t: f64,
+        x: &OVector<f64, D>,
+        h: f64,
+        x_new: &mut OVector<f64, D>,
+        _w: &Weights<D>,
+        _adaptive: bool,
+    ) -> Result<Outcome> {
+        // x_new doubles as the buffer for k = f(t, x)
+        f.rhs(t, x, x_new)?;
+        for i in 0..x.len() {
+            x_new[i] = x[i] + h * x_new[i];
+        }
+        Ok(Outcome::Done { err: 0.0 })
+    }
+}

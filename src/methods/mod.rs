@@ -1,0 +1,133 @@
+//! One file per method. A method takes one step from `(t, x)` with step `h`; it never
+//! loops over time. The [`Integrator`](crate::Integrator) drives every method
+//! through this trait and never asks which one it holds.
+
+use crate::control::{Controller, Weights};
+use crate::error::Result;
+use crate::system::{Eval, System};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+pub mod dopri5;
+pub mod exact;
+pub mod explicit_euler;
+pub mod implicit_euler;
+mod newton;
+
+pub use dopri5::Dopri5;
+pub use exact::{Exact, Flow};
+pub use explicit_euler::ExplicitEuler;
+pub use implicit_euler::{ImplicitEuler, NewtonOptions};
+
+/// What one step attempt produced.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Outcome {
+    /// `x_new` holds the step result; `err` is the weighted RMS error estimate
+    /// (0 when the method has none or adaptivity is off).
+    Done {
+        /// Error estimate, accept when `err ≤ 1`.
+        err: f64,
+    },
+    /// The implicit equation could not be solved with this `h`; retry with a smaller step.
+    Retry(Failure),
+}
+
+/// Why an implicit step must be retried.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Failure {
+    /// Newton did not converge even with a fresh Jacobian.
+    Newton {
+        /// Iterations in the failed attempt.
+        iterations: usize,
+        /// Scaled norm of the last correction.
+        residual: f64,
+    },
+    /// `I − h·J` was singular with a fresh Jacobian.
+    Singular,
+}
+
+/// A one-step method: tableau or Newton solve or exact flow, plus its dense output.
+pub trait Method<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Name used in tables and errors.
+    fn name(&self) -> &'static str;
+    /// Classical order `p` (global error `O(hᵖ)`); `u32::MAX` for an exact flow.
+    fn order(&self) -> u32;
+    /// Order `q` of the embedded error estimate, `None` when there is none.
+    fn error_order(&self) -> Option<u32>;
+    /// The step-size controller that suits the estimate.
+    fn controller(&self) -> Controller {
+        Controller::new(self.error_order().unwrap_or(1), 0.0)
+    }
+    /// Allocate work space for `x0`'s dimension and evaluate what the first step needs.
+    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()>;
+    /// `f(t0, x0)` if `init` (or the last step, FSAL) already has it.
+    fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
+        None
+    }
+    /// Attempt one step of size `h` from `(t, x)` into `x_new`; with `adaptive` also
+    /// estimate the error in the norm of `w`.
+    #[allow(clippy::too_many_arguments)]
+    fn step<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t: f64,
+        x: &OVector<f64, D>,
+        h: f64,
+        x_new: &mut OVector<f64, D>,
+        w: &Weights<D>,
+        adaptive: bool,
+    ) -> Result<Outcome>;
+    /// The step from `x` to `x_new` was accepted (e.g. keep `k7` as the next `k1`).
+    fn accept(&mut self) {}
+    /// The inputs jumped at a breakpoint: drop anything carried over from the last step.
+    fn reset(&mut self) {}
+    /// Number of coefficients of the dense polynomial `x(t + θh) = Σ_j c_j θʲ`.
+    fn dense_len(&self) -> usize {
+        2
+    }
+    /// Fill `c` with the dense-output coefficients of the step just taken
+    /// (before [`accept`](Method::accept)). The default is linear interpolation.
+    fn dense<S: System<D>>(
+        &mut self,
+        _f: &mut Eval<'_, D, S>,
+        _t: f64,
+        _h: f64,
+        x: &OVector<f64, D>,
+        x_new: &OVector<f64, D>,
+        c: &mut [OVector<f64, D>],
+    ) -> Result<()> {
+        c[0].copy_from(x);
+        c[1].copy_from(x_new);
+        c[1] -= x;
+        Ok(())
+    }
+    /// Estimate `|h·λ|` of the dominant eigenvalue for the step just taken
+    /// (before `accept`), for stiffness detection; `None` if the method has none.
+    fn stiffness(&self, _h: f64, _x_new: &OVector<f64, D>) -> Option<f64> {
+        None
+    }
+}
+
+/// `out ← x + h·Σ_j a_j·k_j` in one pass (stage arguments of a Runge–Kutta step).
+#[inline(always)]
+pub(crate) fn lincomb<D: Dim, const K: usize>(
+    out: &mut OVector<f64, D>,
+    x: &OVector<f64, D>,
+    h: f64,
+    terms: [(f64, &OVector<f64, D>); K],
+) where
+    DefaultAllocator: Allocator<D>,
+{
+    let o = out.as_mut_slice();
+    let xs = x.as_slice();
+    for i in 0..o.len() {
+        let mut s = 0.0;
+        for (a, k) in terms.iter() {
+            s += a * k[i];
+        }
+        o[i] = xs[i] + h * s;
+    }
+}

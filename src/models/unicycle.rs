@@ -1,0 +1,47 @@
+//! Unicycle / differential drive: state `(x, y, θ)`, inputs `(v, ω)`
+//! (REP-103: x forward, y left, θ counter-clockwise from +x, θ unwrapped).
+
+use crate::System;
+use nalgebra::{Const, Vector3};
+
+/// `x' = v cos θ`, `y' = v sin θ`, `θ' = ω` with `u = (v, ω)` held.
+///
+/// ```
+/// use reckon::{models::unicycle, System};
+/// use nalgebra::vector;
+/// let mut dx = vector![0.0, 0.0, 0.0];
+/// unicycle::model().rhs(0.0, &vector![0.0, 0.0, 0.0], &[2.0, 0.5], &mut dx);
+/// assert_eq!(dx, vector![2.0, 0.0, 0.5]);
+/// ```
+pub fn model() -> impl System<Const<3>> + Clone {
+    crate::model!(|_t, x: [S; 3], u: [2]| nalgebra::vector![x[2].cos() * u[0], x[2].sin() * u[0], S::from(u[1])])
+}
+
+/// `sinc z = sin z / z`, exact to rounding everywhere (Taylor series near 0).
+#[inline]
+pub fn sinc(z: f64) -> f64 {
+    if z.abs() < 1e-4 {
+        let z2 = z * z;
+        1.0 - z2 / 6.0 * (1.0 - z2 / 20.0)
+    } else {
+        z.sin() / z
+    }
+}
+
+/// The exact arc over `h` with `(v, ω)` held, in a form that stays exact as ω → 0:
+/// `Δθ = ωh`, `d = v·h·sinc(Δθ/2)`, `x₁ = x + d cos(θ + Δθ/2)`, `y₁ = y + d sin(θ + Δθ/2)`, `θ₁ = θ + Δθ`.
+///
+/// ```
+/// use reckon::models::unicycle::flow;
+/// use nalgebra::vector;
+/// // a quarter circle of radius 1: v = 1, ω = 1 for π/2
+/// let x = flow(0.0, &vector![0.0, 0.0, 0.0], &[1.0, 1.0], std::f64::consts::FRAC_PI_2);
+/// assert!((x - vector![1.0, 1.0, std::f64::consts::FRAC_PI_2]).norm() < 1e-15);
+/// ```
+pub fn flow(_t: f64, x: &Vector3<f64>, u: &[f64], h: f64) -> Vector3<f64> {
+    let (v, w) = (u[0], u[1]);
+    let dth = w * h;
+    let d = v * h * sinc(0.5 * dth);
+    let mid = x[2] + 0.5 * dth;
+    Vector3::new(x[0] + d * mid.cos(), x[1] + d * mid.sin(), x[2] + dth)
+}

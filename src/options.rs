@@ -1,0 +1,157 @@
+//! Integration options: named fields with defaults and chainable setters.
+
+use crate::control::Tolerance;
+use crate::error::{Error, Result};
+
+/// How the step size is chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum StepSize {
+    /// Error-controlled steps (methods with an error estimate); an exact flow takes one
+    /// step per control interval (capped by `h_max`).
+    Adaptive,
+    /// Steps on the grid `t₀ + k·h` (plus every breakpoint and `t_end`), `h > 0`.
+    Fixed(f64),
+}
+
+/// Options shared by every method.
+///
+/// ```
+/// use reckon::{Options, StepSize};
+/// let o = Options::default().rtol(1e-8).atol(1e-10).h_max(0.5);
+/// assert_eq!(o.step, StepSize::Adaptive);
+/// assert!(o.validate().is_ok());
+/// assert!(Options::default().step(StepSize::Fixed(0.0)).validate().is_err());
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Options {
+    /// Relative tolerance (default 1e-6).
+    pub rtol: Tolerance,
+    /// Absolute tolerance (default 1e-9).
+    pub atol: Tolerance,
+    /// Step-size mode (default adaptive).
+    pub step: StepSize,
+    /// First step of an adaptive run; `None` selects it by Hairer's algorithm.
+    pub h0: Option<f64>,
+    /// Largest step magnitude (default ∞).
+    pub h_max: f64,
+    /// Limit on step attempts, accepted and rejected (default 100 000, as `dopri5.f`).
+    pub max_steps: usize,
+    /// Extra times the integrator must land on exactly (besides control breakpoints).
+    pub breakpoints: Vec<f64>,
+    /// Keep dense output so that [`Solution::at`](crate::Solution::at) works (default true).
+    pub dense: bool,
+    /// Run the stiffness test every this many accepted steps (default 1000, as `dopri5.f`);
+    /// `None` switches it off.
+    pub stiffness_check: Option<usize>,
+    /// Consecutive failed implicit solves at one step before giving up (default 10).
+    pub max_step_failures: usize,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            rtol: Tolerance::Scalar(1e-6),
+            atol: Tolerance::Scalar(1e-9),
+            step: StepSize::Adaptive,
+            h0: None,
+            h_max: f64::INFINITY,
+            max_steps: 100_000,
+            breakpoints: Vec::new(),
+            dense: true,
+            stiffness_check: Some(1000),
+            max_step_failures: 10,
+        }
+    }
+}
+
+impl Options {
+    /// Set the relative tolerance (scalar or per component).
+    pub fn rtol(mut self, rtol: impl Into<Tolerance>) -> Self {
+        self.rtol = rtol.into();
+        self
+    }
+    /// Set the absolute tolerance (scalar or per component).
+    pub fn atol(mut self, atol: impl Into<Tolerance>) -> Self {
+        self.atol = atol.into();
+        self
+    }
+    /// Set the step-size mode.
+    pub fn step(mut self, step: StepSize) -> Self {
+        self.step = step;
+        self
+    }
+    /// Fixed steps of size `h` (shorthand for `step(StepSize::Fixed(h))`).
+    pub fn fixed(self, h: f64) -> Self {
+        self.step(StepSize::Fixed(h))
+    }
+    /// Set the first adaptive step.
+    pub fn h0(mut self, h0: f64) -> Self {
+        self.h0 = Some(h0);
+        self
+    }
+    /// Set the largest step.
+    pub fn h_max(mut self, h_max: f64) -> Self {
+        self.h_max = h_max;
+        self
+    }
+    /// Set the step limit.
+    pub fn max_steps(mut self, n: usize) -> Self {
+        self.max_steps = n;
+        self
+    }
+    /// Add times to land on exactly.
+    pub fn breakpoints(mut self, b: impl IntoIterator<Item = f64>) -> Self {
+        self.breakpoints.extend(b);
+        self
+    }
+    /// Keep or drop dense output.
+    pub fn dense(mut self, on: bool) -> Self {
+        self.dense = on;
+        self
+    }
+    /// Stiffness test interval (`None`: off).
+    pub fn stiffness_check(mut self, every: Option<usize>) -> Self {
+        self.stiffness_check = every;
+        self
+    }
+
+    /// Check every field; the integrator calls this before it starts.
+    pub fn validate(&self) -> Result<()> {
+        for (what, tol) in [("rtol", &self.rtol), ("atol", &self.atol)] {
+            let vals: &[f64] = match tol {
+                Tolerance::Scalar(v) => std::slice::from_ref(v),
+                Tolerance::PerComponent(v) => v,
+            };
+            if let Some(v) = vals.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                return Err(Error::invalid(what, format!("must be finite and non-negative, got {v}")));
+            }
+        }
+        let positive = |what: &'static str, v: f64| {
+            if v > 0.0 && !v.is_nan() {
+                Ok(())
+            } else {
+                Err(Error::invalid(what, format!("must be positive, got {v}")))
+            }
+        };
+        if let StepSize::Fixed(h) = self.step {
+            positive("step", h)?;
+            if !h.is_finite() {
+                return Err(Error::invalid("step", "a fixed step must be finite"));
+            }
+        }
+        if let Some(h0) = self.h0 {
+            positive("h0", h0)?;
+        }
+        positive("h_max", self.h_max)?;
+        if self.max_steps == 0 {
+            return Err(Error::invalid("max_steps", "must be at least 1"));
+        }
+        if self.stiffness_check == Some(0) {
+            return Err(Error::invalid("stiffness_check", "interval must be at least 1"));
+        }
+        if let Some(b) = self.breakpoints.iter().find(|b| !b.is_finite()) {
+            return Err(Error::invalid("breakpoints", format!("must be finite, got {b}")));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,149 @@
+//! The result of an integration: times, states, dense output, statistics, events.
+
+use crate::error::{Error, Result};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// Work counters, all counted in one place ([`Eval`](crate::system::Eval) and the driver).
+///
+/// `accepted + rejected` is the number of step attempts; `rejected` includes steps
+/// retried because Newton failed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Calls of `f(t, x)`.
+    pub rhs_evals: u64,
+    /// Calls of the autodiff Jacobian `∂f/∂x`.
+    pub jacobian_evals: u64,
+    /// LU factorisations of `I − h·J`.
+    pub lu_decompositions: u64,
+    /// Newton iterations (each costs one `f` call and one LU solve).
+    pub newton_iterations: u64,
+    /// Accepted steps.
+    pub accepted: u64,
+    /// Rejected step attempts (error too large or Newton failure).
+    pub rejected: u64,
+}
+
+/// Where the problem was found stiff (DOPRI5's test: `h·λ > 3.25` on 15 checks
+/// not separated by 6 non-stiff ones).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Stiffness {
+    /// Time of the verdict.
+    pub t: f64,
+    /// `|h·λ|` estimate at that time.
+    pub h_lambda: f64,
+}
+
+/// A zero of an event function `g(t, x)` found during the integration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EventHit<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Index of the event in the order given.
+    pub index: usize,
+    /// Time of the zero.
+    pub t: f64,
+    /// State at that time (from dense output).
+    pub x: OVector<f64, D>,
+}
+
+/// One step's dense polynomial `x(t₀ + θh) = Σ_j c_j θʲ`, `θ ∈ [0, 1]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DenseSegment<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Step start.
+    pub t0: f64,
+    /// Step size (negative backward).
+    pub h: f64,
+    /// End of the segment (`t0 + h`, or an earlier terminal event).
+    pub t1: f64,
+    /// Coefficients in powers of θ.
+    pub c: Vec<OVector<f64, D>>,
+}
+
+impl<D: Dim> DenseSegment<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Evaluate at `t` by Horner's rule in θ = (t − t₀)/h.
+    pub fn eval(&self, t: f64) -> OVector<f64, D> {
+        let theta = (t - self.t0) / self.h;
+        horner(&self.c, theta)
+    }
+}
+
+/// `Σ_j c_j θʲ` by Horner's rule.
+pub(crate) fn horner<D: Dim>(c: &[OVector<f64, D>], theta: f64) -> OVector<f64, D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let mut y = c[c.len() - 1].clone();
+    for cj in c[..c.len() - 1].iter().rev() {
+        y *= theta;
+        y += cj;
+    }
+    y
+}
+
+/// Times and states at every step end (and every breakpoint), with statistics.
+#[derive(Debug, Clone)]
+pub struct Solution<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Times, starting at `t0`, ending at `t_end` (or a terminal event).
+    pub t: Vec<f64>,
+    /// States at those times.
+    pub x: Vec<OVector<f64, D>>,
+    /// Counters.
+    pub stats: Stats,
+    /// Event zeros in time order.
+    pub events: Vec<EventHit<D>>,
+    /// Set when the stiffness test fired (the run still completes).
+    pub stiffness: Option<Stiffness>,
+    /// Name of the method that produced this solution.
+    pub method: &'static str,
+    pub(crate) dense: Vec<DenseSegment<D>>,
+}
+
+impl<D: Dim> Solution<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// The final time and state.
+    pub fn last(&self) -> (f64, &OVector<f64, D>) {
+        let n = self.t.len() - 1;
+        (self.t[n], &self.x[n])
+    }
+
+    /// The dense segments (one per accepted step), empty when dense output was off.
+    pub fn dense_segments(&self) -> &[DenseSegment<D>] {
+        &self.dense
+    }
+
+    /// The state at any `t` inside the span, from the method's dense output
+    /// (4th order for RK45, linear for the Euler methods, cubic Hermite for exact flows).
+    pub fn at(&self, t: f64) -> Result<OVector<f64, D>> {
+        if self.dense.is_empty() {
+            return if self.t.len() == 1 && t == self.t[0] {
+                Ok(self.x[0].clone())
+            } else {
+                Err(Error::invalid("t", "dense output was not kept (Options::dense)"))
+            };
+        }
+        let (a, b) = (self.t[0], *self.t.last().unwrap_or(&self.t[0]));
+        let (lo, hi) = (a.min(b), a.max(b));
+        if !(t >= lo && t <= hi) {
+            return Err(Error::invalid("t", format!("{t} is outside the solved span [{lo}, {hi}]")));
+        }
+        let forward = self.dense[0].h > 0.0;
+        // first segment whose end is at or past t in the direction of integration
+        let k = self
+            .dense
+            .partition_point(|s| if forward { s.t1 < t } else { s.t1 > t });
+        Ok(self.dense[k.min(self.dense.len() - 1)].eval(t))
+    }
+}

@@ -1,0 +1,269 @@
+//! The model abstraction: `x' = f(t, x, u)` written once, evaluated at `f64` for
+//! explicit methods and at dual numbers for exact Jacobians (num-dual).
+//!
+//! Notation follows Hairer–Nørsett–Wanner: `t` time, `x` state, `u` inputs held
+//! constant over a control interval, `f` the right-hand side, `J = ∂f/∂x`.
+
+use crate::error::{Error, Quantity, Result};
+use crate::solution::Stats;
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U1};
+use num_dual::DualVec64;
+use std::marker::PhantomData;
+
+/// A right-hand side `x' = f(t, x, u)` with its Jacobian `J = ∂f/∂x`.
+///
+/// Most users never implement this by hand: [`model!`](crate::model) turns a
+/// closure into a `System` whose Jacobian is exact (automatic differentiation).
+/// Implementing it directly is how a hand-written Jacobian can be supplied.
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::{vector, Matrix2};
+/// let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
+/// let mut dx = vector![0.0, 0.0];
+/// f.rhs(0.0, &vector![1.0, 2.0], &[], &mut dx);
+/// assert_eq!(dx, vector![2.0, -1.0]);
+/// let mut j = Matrix2::zeros();
+/// f.jacobian(0.0, &vector![1.0, 2.0], &[], &mut j);
+/// assert_eq!(j, Matrix2::new(0.0, 1.0, -1.0, 0.0));
+/// ```
+pub trait System<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Number of held inputs `u` the model reads (0 for an autonomous model).
+    fn inputs(&self) -> usize {
+        0
+    }
+    /// `dx ← f(t, x, u)`.
+    fn rhs(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dx: &mut OVector<f64, D>);
+    /// `jac ← ∂f/∂x (t, x, u)`.
+    fn jacobian(&self, t: f64, x: &OVector<f64, D>, u: &[f64], jac: &mut OMatrix<f64, D, D>)
+    where
+        DefaultAllocator: Allocator<D, D>;
+}
+
+impl<D: Dim, T: System<D> + ?Sized> System<D> for &T
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn inputs(&self) -> usize {
+        (**self).inputs()
+    }
+    fn rhs(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dx: &mut OVector<f64, D>) {
+        (**self).rhs(t, x, u, dx)
+    }
+    fn jacobian(&self, t: f64, x: &OVector<f64, D>, u: &[f64], jac: &mut OMatrix<f64, D, D>)
+    where
+        DefaultAllocator: Allocator<D, D>,
+    {
+        (**self).jacobian(t, x, u, jac)
+    }
+}
+
+/// A model given as one closure body instantiated twice: at `f64` (`F`) and at
+/// num-dual's `DualVec64<D>` (`G`). Build it with [`model!`](crate::model).
+///
+/// `f(t, x, u)` runs at hand-written `f64` cost; `J = ∂f/∂x` is exact to rounding
+/// because `G` propagates derivatives alongside values.
+#[derive(Clone)]
+pub struct ClosureModel<D, F, G> {
+    inputs: usize,
+    f: F,
+    g: G,
+    _dim: PhantomData<D>,
+}
+
+impl<D, F, G> ClosureModel<D, F, G> {
+    /// Pair a real and a dual instantiation of the same body; `inputs` is the number
+    /// of held inputs the body reads. Prefer [`model!`](crate::model).
+    pub fn new(inputs: usize, f: F, g: G) -> Self {
+        ClosureModel {
+            inputs,
+            f,
+            g,
+            _dim: PhantomData,
+        }
+    }
+}
+
+impl<D: Dim, F, G> System<D> for ClosureModel<D, F, G>
+where
+    F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
+    G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    fn inputs(&self) -> usize {
+        self.inputs
+    }
+    #[inline(always)]
+    fn rhs(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dx: &mut OVector<f64, D>) {
+        *dx = (self.f)(t, x, u);
+    }
+    fn jacobian(&self, t: f64, x: &OVector<f64, D>, u: &[f64], jac: &mut OMatrix<f64, D, D>)
+    where
+        DefaultAllocator: Allocator<D, D>,
+    {
+        let (_, j) = num_dual::jacobian(|xd: OVector<DualVec64<D>, D>| (self.g)(t, &xd, u), x);
+        *jac = j;
+    }
+}
+
+/// Turn a closure body into a [`System`] with an exact autodiff Jacobian.
+///
+/// `model!(|t, x: [S; N]| body)` for a fixed-size state `SVector<S, N>`,
+/// `model!(|t, x: [S; Dyn]| body)` for a `DVector<S>`, and `, u: [M]` after the state
+/// for `M` held inputs (`u: &[f64]`). The body is written once and compiled twice,
+/// with `S = f64` and with `S` a num-dual number, so it must be generic in spirit:
+/// put `f64` constants on the right (`x[0] * 2.0`, not `2.0 * x[0]`) or lift them
+/// with `S::from(2.0)`. Captured variables are moved into both copies: capture
+/// `Copy` values or references.
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::{vector, Matrix3};
+/// // unicycle: x' = v cos θ, y' = v sin θ, θ' = ω with u = (v, ω)
+/// let f = model!(|_t, x: [S; 3], u: [2]| vector![x[2].cos() * u[0], x[2].sin() * u[0], S::from(u[1])]);
+/// let mut j = Matrix3::zeros();
+/// f.jacobian(0.0, &vector![0.0, 0.0, 0.5], &[2.0, 0.1], &mut j);
+/// assert!((j[(0, 2)] + 2.0 * 0.5f64.sin()).abs() < 1e-15); // ∂ẋ/∂θ = −v sin θ
+/// ```
+#[macro_export]
+macro_rules! model {
+    (|$t:tt, $x:ident : [$s:ident; Dyn]| $body:expr) => {
+        $crate::model!(@dyn 0, $t, $x, $s, _, $body)
+    };
+    (|$t:tt, $x:ident : [$s:ident; Dyn], $u:ident : [$m:expr]| $body:expr) => {
+        $crate::model!(@dyn $m, $t, $x, $s, $u, $body)
+    };
+    (|$t:tt, $x:ident : [$s:ident; $n:expr]| $body:expr) => {
+        $crate::model!(@fixed 0, $n, $t, $x, $s, _, $body)
+    };
+    (|$t:tt, $x:ident : [$s:ident; $n:expr], $u:tt : [$m:expr]| $body:expr) => {
+        $crate::model!(@fixed $m, $n, $t, $x, $s, $u, $body)
+    };
+    (@fixed $m:expr, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
+        $crate::ClosureModel::<$crate::nalgebra::Const<{ $n }>, _, _>::new(
+            $m,
+            #[allow(unused_variables)]
+            move |$t: f64,
+                  $x: &$crate::nalgebra::SVector<f64, { $n }>,
+                  $u: &[f64]|
+                  -> $crate::nalgebra::SVector<f64, { $n }> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(dead_code)]
+                type $s = f64;
+                $body
+            },
+            #[allow(unused_variables)]
+            move |$t: f64,
+                  $x: &$crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n }>, { $n }>,
+                  $u: &[f64]|
+                  -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n }>, { $n }> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(dead_code)]
+                type $s = $crate::num_dual::DualSVec64<{ $n }>;
+                $body
+            },
+        )
+    };
+    (@dyn $m:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
+        $crate::ClosureModel::<$crate::nalgebra::Dyn, _, _>::new(
+            $m,
+            #[allow(unused_variables)]
+            move |$t: f64, $x: &$crate::nalgebra::DVector<f64>, $u: &[f64]| -> $crate::nalgebra::DVector<f64> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(dead_code)]
+                type $s = f64;
+                $body
+            },
+            #[allow(unused_variables)]
+            move |$t: f64,
+                  $x: &$crate::nalgebra::DVector<$crate::num_dual::DualDVec64>,
+                  $u: &[f64]|
+                  -> $crate::nalgebra::DVector<$crate::num_dual::DualDVec64> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(dead_code)]
+                type $s = $crate::num_dual::DualDVec64;
+                $body
+            },
+        )
+    };
+}
+
+/// The one place where the model is called: counts every evaluation and checks
+/// every result for NaN/∞ at the time it appears.
+pub struct Eval<'a, D: Dim, S>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    sys: &'a S,
+    /// Inputs held over the current control interval.
+    pub(crate) u: Vec<f64>,
+    /// Counters.
+    pub stats: Stats,
+    _dim: PhantomData<D>,
+}
+
+impl<'a, D: Dim, S: System<D>> Eval<'a, D, S>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    pub(crate) fn new(sys: &'a S, u: Vec<f64>) -> Self {
+        Eval {
+            sys,
+            u,
+            stats: Stats::default(),
+            _dim: PhantomData,
+        }
+    }
+
+    /// `dx ← f(t, x)`, counted and checked.
+    #[inline]
+    pub fn rhs(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) -> Result<()> {
+        self.stats.rhs_evals += 1;
+        self.sys.rhs(t, x, &self.u, dx);
+        if dx.len() != x.len() {
+            return Err(Error::invalid(
+                "model",
+                format!("f returned {} components for a state of {}", dx.len(), x.len()),
+            ));
+        }
+        finite(dx.as_slice(), t, Quantity::Derivative)
+    }
+
+    /// `jac ← ∂f/∂x (t, x)`, counted and checked.
+    pub fn jacobian(&mut self, t: f64, x: &OVector<f64, D>, jac: &mut OMatrix<f64, D, D>) -> Result<()>
+    where
+        DefaultAllocator: Allocator<D, D>,
+    {
+        self.stats.jacobian_evals += 1;
+        self.sys.jacobian(t, x, &self.u, jac);
+        if jac.nrows() != x.len() || jac.ncols() != x.len() {
+            return Err(Error::invalid(
+                "model",
+                format!("Jacobian is {}x{} for a state of {}", jac.nrows(), jac.ncols(), x.len()),
+            ));
+        }
+        finite(jac.as_slice(), t, Quantity::Jacobian)
+    }
+}
+
+/// `Ok` when every value is finite, else [`Error::NonFinite`] naming the first bad one.
+#[inline]
+pub(crate) fn finite(v: &[f64], t: f64, quantity: Quantity) -> Result<()> {
+    if v.iter().all(|a| a.is_finite()) {
+        return Ok(());
+    }
+    let component = v.iter().position(|a| !a.is_finite()).unwrap_or(0);
+    Err(Error::NonFinite {
+        t,
+        quantity,
+        component,
+    })
+}

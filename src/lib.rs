@@ -7,7 +7,9 @@ pub mod linalg;
 pub mod methods;
 pub mod models;
 pub mod options;
+pub mod problems;
 pub mod solution;
+pub mod studies;
 pub mod system;
 
 pub use controls::Controls;

@@ -41,7 +41,7 @@ where
 ///     .controls(controls)
 ///     .solve(Exact::new(unicycle::flow), &Options::default())
 ///     .unwrap();
-/// assert_eq!(sol.last().1, vector![2.0, 0.0, 0.0]); // straight line at v = 1
+/// assert_eq!(*sol.last().1, vector![2.0, 0.0, 0.0]); // straight line at v = 1
 /// ```
 #[derive(Debug, Clone)]
 pub struct Exact<F> {

@@ -1,0 +1,117 @@
+//! Standard test problems with exact solutions or published reference values
+//! (Hairer–Nørsett–Wanner; the Bari Test Set; see `docs/guide.md`).
+
+use crate::System;
+use nalgebra::{Const, Dyn, Matrix2, Vector1, Vector2, Vector3, Vector4, vector};
+
+/// Rotation–decay `x' = A x`, `A = [[−a, −ω], [ω, −a]]` with `a = 0.5`, `ω = 2`.
+pub fn rotation_decay() -> impl System<Const<2>> + Clone {
+    crate::model!(|_t, x: [S; 2]| vector![x[0] * -0.5 - x[1] * 2.0, x[0] * 2.0 - x[1] * 0.5])
+}
+
+/// Exact solution of [`rotation_decay`]: `x(t) = e^{−at} R(ωt) x₀`.
+pub fn rotation_decay_exact(t: f64, x0: &Vector2<f64>) -> Vector2<f64> {
+    let (s, c) = (2.0 * t).sin_cos();
+    Matrix2::new(c, -s, s, c) * x0 * (-0.5 * t).exp()
+}
+
+/// `u' = sin u`.
+pub fn sin_u() -> impl System<Const<1>> + Clone {
+    crate::model!(|_t, x: [S; 1]| vector![x[0].sin()])
+}
+
+/// Exact solution of [`sin_u`]: `u(t) = 2 atan(eᵗ tan(u₀/2))` for `|u₀| < π`.
+pub fn sin_u_exact(t: f64, u0: f64) -> Vector1<f64> {
+    Vector1::new(2.0 * (t.exp() * (0.5 * u0).tan()).atan())
+}
+
+/// The stiff scalar problem `x' = −1000(x − cos t) − sin t`; `x = cos t` when `x(0) = 1`.
+pub fn stiff_cosine() -> impl System<Const<1>> + Clone {
+    crate::model!(|t, x: [S; 1]| vector![(x[0] - t.cos()) * -1000.0 - t.sin()])
+}
+
+/// Arenstorf orbit parameter μ.
+pub const ARENSTORF_MU: f64 = 0.012277471;
+/// Arenstorf initial state `(y1, y2, y1', y2')`.
+pub const ARENSTORF_Y0: [f64; 4] = [0.994, 0.0, 0.0, -2.00158510637908252240537862224];
+/// Arenstorf period.
+pub const ARENSTORF_T: f64 = 17.0652165601579625588917206249;
+
+/// The Arenstorf orbit of the restricted three-body problem (HNW ODE I §II.0).
+pub fn arenstorf() -> impl System<Const<4>> + Clone {
+    crate::model!(|_t, y: [S; 4]| {
+        let mu = ARENSTORF_MU;
+        let mu1 = 1.0 - mu;
+        let d1 = ((y[0] + mu).powi(2) + y[1].powi(2)).powf(1.5);
+        let d2 = ((y[0] - mu1).powi(2) + y[1].powi(2)).powf(1.5);
+        vector![
+            y[2],
+            y[3],
+            y[0] + y[3] * 2.0 - (y[0] + mu) * mu1 / d1 - (y[0] - mu1) * mu / d2,
+            y[1] - y[2] * 2.0 - y[1] * mu1 / d1 - y[1] * mu / d2
+        ]
+    })
+}
+
+/// Arenstorf initial state as a vector.
+pub fn arenstorf_y0() -> Vector4<f64> {
+    Vector4::from(ARENSTORF_Y0)
+}
+
+/// Van der Pol in μ form: `y1' = y2`, `y2' = μ(1 − y1²)y2 − y1`.
+pub fn van_der_pol(mu: f64) -> impl System<Const<2>> + Clone {
+    crate::model!(|_t, y: [S; 2]| vector![y[1], (-y[0] * y[0] + 1.0) * y[1] * mu - y[0]])
+}
+
+/// Robertson's chemical kinetics, `k = (0.04, 3e7, 1e4)`, `y0 = (1, 0, 0)`.
+pub fn robertson() -> impl System<Const<3>> + Clone {
+    crate::model!(|_t, y: [S; 3]| vector![
+        y[0] * -0.04 + y[1] * y[2] * 1e4,
+        y[0] * 0.04 - y[1] * y[1] * 3e7 - y[1] * y[2] * 1e4,
+        y[1] * y[1] * 3e7
+    ])
+}
+
+/// Lorenz with σ = 10, ρ = 28, β = 8/3.
+pub fn lorenz() -> impl System<Const<3>> + Clone {
+    crate::model!(|_t, y: [S; 3]| vector![
+        (y[1] - y[0]) * 10.0,
+        y[0] * (-y[2] + 28.0) - y[1],
+        y[0] * y[1] - y[2] * (8.0 / 3.0)
+    ])
+}
+
+/// Initial state `(1, 1, 1)` for [`lorenz`].
+pub fn lorenz_y0() -> Vector3<f64> {
+    Vector3::new(1.0, 1.0, 1.0)
+}
+
+/// The 1-D Brusselator with `n` grid points (HNW ODE II §IV.1, α = 1/50):
+/// state `(u₁, v₁, …, u_n, v_n)`, `u_i' = 1 + u_i²v_i − 4u_i + α(n+1)²(u_{i−1} − 2u_i + u_{i+1})`,
+/// `v_i' = 3u_i − u_i²v_i + α(n+1)²(v_{i−1} − 2v_i + v_{i+1})`, boundary values `u = 1, v = 3`.
+pub fn brusselator(n: usize) -> impl System<Dyn> + Clone {
+    let c = (n as f64 + 1.0).powi(2) / 50.0;
+    crate::model!(|_t, y: [S; Dyn]| {
+        let n = y.len() / 2;
+        nalgebra::DVector::from_fn(2 * n, |k, _| {
+            let i = k / 2;
+            let (own, bc) = if k % 2 == 0 { (0, 1.0) } else { (1, 3.0) };
+            let at = |j: usize| y[2 * j + own].clone();
+            let left = if i == 0 { S::from(bc) } else { at(i - 1) };
+            let right = if i + 1 == n { S::from(bc) } else { at(i + 1) };
+            let (u, v) = (y[2 * i].clone(), y[2 * i + 1].clone());
+            let diff = (left + right - at(i) * 2.0) * c;
+            let uuv = u.clone() * u.clone() * v;
+            if own == 0 { uuv - u * 4.0 + 1.0 + diff } else { u * 3.0 - uuv + diff }
+        })
+    })
+}
+
+/// Brusselator initial state: `u_i = 1 + sin(2πx_i)`, `v_i = 3`, `x_i = i/(n+1)`.
+pub fn brusselator_y0(n: usize) -> nalgebra::DVector<f64> {
+    nalgebra::DVector::from_fn(2 * n, |k, _| {
+        let x = (k / 2 + 1) as f64 / (n as f64 + 1.0);
+        if k % 2 == 0 { 1.0 + (2.0 * std::f64::consts::PI * x).sin() } else { 3.0 }
+    })
+}
+

@@ -1,25 +1,16 @@
 use nalgebra::vector;
 use reckon::methods::*;
-use reckon::models::unicycle;
 use reckon::problems::*;
 use reckon::*;
 fn main() {
-    let p = Problem::new(sin_u(), vector![0.5], (0.0, 5.0));
-    let ex = sin_u_exact(5.0, 0.5);
-    for k in 0..8 {
-        let h = 1.0 / 2f64.powi(k);
-        let s = p.solve(Dopri5::default(), &Options::default().fixed(h)).unwrap();
-        println!("sin h={h} e={:e}", (s.last().1 - ex).amax());
+    for tol in [1e-10, 1e-11, 1e-12] {
+        let y0 = arenstorf_y0();
+        let s = Problem::new(arenstorf(), y0, (0.0, ARENSTORF_T)).solve(Dopri5::default(), &Options::default().rtol(tol).atol(tol)).unwrap();
+        println!("aren tol={tol} e={:e} {:?}", (s.last().1 - y0).amax(), s.stats);
     }
-    let controls = Controls::new(
-        vec![0.0, 1.0, 2.0, 3.0, 4.0],
-        vec![vec![1.0, 0.8], vec![2.0, -0.5], vec![1.5, 0.0], vec![0.5, 2.0], vec![0.0, 0.0]],
-    ).unwrap();
-    let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.3], (0.0, 4.0)).controls(controls);
-    let ex = *p.solve(Exact::new(unicycle::flow), &Options::default()).unwrap().last().1;
-    for k in 0..8 {
-        let h = 0.3 / 2f64.powi(k);
-        let s = p.solve(Dopri5::default(), &Options::default().fixed(h)).unwrap();
-        println!("uni h={h} e={:e}", (s.last().1 - ex).amax());
+    let x0 = vector![1.0, 0.5];
+    for tol in [1e-3, 1e-4, 1e-5, 1e-6] {
+        let s = Problem::new(rotation_decay(), x0, (0.0, 2.0)).solve(ImplicitEuler::default(), &Options::default().rtol(tol).atol(tol)).unwrap();
+        println!("ie tol={tol} e={:e} {:?}", (s.last().1 - rotation_decay_exact(2.0, &x0)).amax(), s.stats);
     }
 }

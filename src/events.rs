@@ -91,7 +91,11 @@ where
     type Param = f64;
     type Output = f64;
     fn cost(&self, t: &f64) -> std::result::Result<f64, argmin::core::Error> {
-        Ok((self.g)(*t, &horner(self.c, (*t - self.t0) / self.h)))
+        let g = (self.g)(*t, &horner(self.c, (*t - self.t0) / self.h));
+        if g.is_nan() {
+            return Err(argmin::core::Error::msg(format!("event function is NaN at t = {t}")));
+        }
+        Ok(g)
     }
 }
 
@@ -120,5 +124,13 @@ where
         .configure(|s| s.max_iters(200))
         .run()
         .map_err(|e| fail(e.to_string()))?;
-    res.state.best_param.ok_or_else(|| fail("no root returned".into()))
+    use argmin::core::{State, TerminationReason, TerminationStatus};
+    match res.state.get_termination_status() {
+        TerminationStatus::Terminated(TerminationReason::SolverConverged) => {}
+        other => return Err(fail(format!("root finder stopped: {other:?}"))),
+    }
+    match res.state.best_param {
+        Some(t) if t.is_finite() => Ok(t),
+        _ => Err(fail("no finite root returned".into())),
+    }
 }

@@ -322,7 +322,9 @@ where
                 Outcome::Retry(why) => {
                     self.f.stats.rejected += 1;
                     failures += 1;
-                    if failures > self.max_failures {
+                    // a fixed step at which I − hJ is singular has no implicit Euler map
+                    let singular_fixed = !self.adaptive && why == Failure::Singular;
+                    if failures > self.max_failures || singular_fixed {
                         return Err(match why {
                             Failure::Newton { iterations, residual } => Error::NewtonDiverged {
                                 t: self.t,

@@ -1,0 +1,164 @@
+//! Every error variant, provoked by a real bad input.
+
+use nalgebra::{DVector, vector};
+use reckon::error::Quantity;
+use reckon::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler};
+use reckon::models::unicycle;
+use reckon::{Controls, Direction, Error, Event, Options, Problem, StepSize, model};
+
+/// An rhs that returns NaN after t = 1: every method reports NonFinite at t ≈ 1.
+#[test]
+fn nan_after_t1_is_reported_where_it_happens() {
+    let f = model!(|t, x: [S; 1]| vector![if t > 1.0 { S::from(f64::NAN) } else { -x[0] }]);
+    let p = Problem::new(&f, vector![1.0], (0.0, 3.0));
+    let check = |r: reckon::Result<reckon::Solution<_>>, what: &str, h: f64| match r {
+        Err(Error::NonFinite { t, quantity: Quantity::Derivative, component: 0 }) => {
+            assert!(t > 1.0 && t <= 1.0 + h, "{what}: reported at t = {t}")
+        }
+        other => panic!("{what}: expected NonFinite, got {:?}", other.map(|s| s.last().0)),
+    };
+    check(p.solve(Dopri5::default(), &Options::default()), "rk45", 0.5);
+    check(p.solve(ImplicitEuler::default(), &Options::default()), "implicit Euler", 0.5);
+    check(p.solve(ExplicitEuler, &Options::default().fixed(0.01)), "explicit Euler", 0.01);
+    check(p.solve(ImplicitEuler::default(), &Options::default().fixed(0.01)), "implicit Euler fixed", 0.01);
+    check(p.solve(Dopri5::default(), &Options::default().fixed(0.01)), "rk45 fixed", 0.01);
+}
+
+#[test]
+fn state_overflow_is_non_finite_state() {
+    let f = model!(|_t, x: [S; 1]| vector![x[0] * 0.0 + 1e307]);
+    let r = Problem::new(&f, vector![1.7e308], (0.0, 2.0)).solve(ExplicitEuler, &Options::default().fixed(1.0));
+    assert_eq!(r.unwrap_err(), Error::NonFinite { t: 1.0, quantity: Quantity::State, component: 0 });
+}
+
+#[test]
+fn infinite_jacobian_is_non_finite_jacobian() {
+    // f = −√x has f(0) = 0 but ∂f/∂x = −1/(2√x) = −∞ at 0
+    let f = model!(|_t, x: [S; 1]| vector![-x[0].sqrt()]);
+    let r = Problem::new(&f, vector![0.0], (0.0, 1.0)).solve(ImplicitEuler::default(), &Options::default().fixed(0.1));
+    assert!(matches!(r, Err(Error::NonFinite { t: 0.0, quantity: Quantity::Jacobian, .. })), "{r:?}");
+}
+
+/// x' = x² blows up at t = 1; the implicit Euler equation x₁ = x₀ + h x₁² has no real
+/// solution once 4h·x₀ > 1, so Newton fails for every sub-step the driver tries.
+#[test]
+fn newton_divergence_on_blow_up() {
+    let f = model!(|_t, x: [S; 1]| vector![x[0] * x[0]]);
+    let r = Problem::new(&f, vector![1.0], (0.0, 2.0)).solve(ImplicitEuler::default(), &Options::default().fixed(0.4));
+    match r {
+        Err(Error::NewtonDiverged { t, h, iterations, residual }) => {
+            assert!(t > 0.4 && t < 1.0, "t = {t}");
+            assert!(h > 0.0 && h < 0.4 / 512.0, "h = {h}");
+            assert!(iterations >= 1 && residual > 0.0);
+        }
+        other => panic!("expected NewtonDiverged, got {other:?}"),
+    }
+}
+
+#[test]
+fn singular_iteration_matrix_at_fixed_step() {
+    // x' = 10x with h = 0.1: I − hJ = 1 − 1 = 0
+    let f = model!(|_t, x: [S; 1]| vector![x[0] * 10.0]);
+    let r = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(ImplicitEuler::default(), &Options::default().fixed(0.1));
+    assert_eq!(r.unwrap_err(), Error::SingularMatrix { t: 0.0, h: 0.1 });
+    // an adaptive run recovers by changing h
+    let ok = Problem::new(&f, vector![1.0], (0.0, 0.5)).solve(ImplicitEuler::default(), &Options::default().h0(0.1));
+    assert!(ok.is_ok());
+}
+
+#[test]
+fn step_size_underflow_at_blow_up() {
+    let f = model!(|_t, x: [S; 1]| vector![x[0] * x[0]]);
+    let r = Problem::new(&f, vector![1.0], (0.0, 2.0)).solve(Dopri5::default(), &Options::default());
+    match r {
+        Err(Error::StepSizeUnderflow { t, h }) => {
+            assert!((t - 1.0).abs() < 1e-6, "t = {t}");
+            assert!(h.abs() < 1e-14, "h = {h}");
+        }
+        other => panic!("expected StepSizeUnderflow, got {other:?}"),
+    }
+}
+
+#[test]
+fn step_limit() {
+    let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
+    let r = Problem::new(&f, vector![1.0, 0.0], (0.0, 100.0)).solve(Dopri5::default(), &Options::default().max_steps(10));
+    match r {
+        Err(Error::MaxSteps { t, steps: 10 }) => assert!(t > 0.0 && t < 100.0),
+        other => panic!("expected MaxSteps, got {other:?}"),
+    }
+}
+
+fn invalid(r: reckon::Result<impl std::fmt::Debug>) -> &'static str {
+    match r {
+        Err(Error::InvalidInput { what, reason }) => {
+            assert!(!reason.is_empty());
+            what
+        }
+        other => panic!("expected InvalidInput, got {other:?}"),
+    }
+}
+
+#[test]
+fn invalid_options_and_inputs() {
+    let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
+    let x0 = vector![1.0, 0.0];
+    let p = Problem::new(&f, x0, (0.0, 1.0));
+    let d = Options::default();
+    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().rtol(-1e-6))), "rtol");
+    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().atol(f64::NAN))), "atol");
+    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().rtol(0.0).atol(0.0))), "atol");
+    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().rtol(vec![1e-6]))), "rtol");
+    assert_eq!(invalid(p.solve(ExplicitEuler, &d.clone().fixed(0.0))), "step");
+    assert_eq!(invalid(p.solve(ExplicitEuler, &d.clone().fixed(-0.1))), "step");
+    assert_eq!(invalid(p.solve(ExplicitEuler, &d.clone().step(StepSize::Fixed(f64::INFINITY)))), "step");
+    assert_eq!(invalid(p.solve(ExplicitEuler, &d)), "step"); // adaptive without an estimate
+    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().h0(-1.0))), "h0");
+    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().h_max(0.0))), "h_max");
+    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().max_steps(0))), "max_steps");
+    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().breakpoints([f64::NAN]))), "breakpoints");
+    let empty = Problem::new(&f, x0, (1.0, 1.0));
+    assert_eq!(invalid(empty.solve(Dopri5::default(), &d)), "span");
+    let inf = Problem::new(&f, x0, (0.0, f64::INFINITY));
+    assert_eq!(invalid(inf.solve(Dopri5::default(), &d)), "span");
+    let nan0 = Problem::new(&f, vector![f64::NAN, 0.0], (0.0, 1.0));
+    assert_eq!(invalid(nan0.solve(Dopri5::default(), &d)), "x0");
+}
+
+#[test]
+fn dimension_and_control_mismatches() {
+    // a dynamic model that returns the wrong number of components
+    let g = model!(|_t, x: [S; Dyn]| DVector::from_element(x.len() + 1, S::from(0.0)));
+    let p = Problem::new(&g, DVector::from_vec(vec![1.0, 2.0]), (0.0, 1.0));
+    assert_eq!(invalid(p.solve(Dopri5::default(), &Options::default())), "model");
+    let e = Problem::new(&g, DVector::from_vec(vec![]), (0.0, 1.0));
+    assert_eq!(invalid(e.solve(Dopri5::default(), &Options::default())), "x0");
+    // a model with inputs but no controls, and controls of the wrong width
+    let u = unicycle::model();
+    let x0 = vector![0.0, 0.0, 0.0];
+    assert_eq!(invalid(Problem::new(&u, x0, (0.0, 1.0)).solve(Exact::new(unicycle::flow), &Options::default())), "controls");
+    let c1 = Controls::new(vec![0.0], vec![vec![1.0]]).unwrap();
+    let p = Problem::new(&u, x0, (0.0, 1.0)).controls(c1);
+    assert_eq!(invalid(p.solve(Dopri5::default(), &Options::default())), "controls");
+    // the span starts before the first control sample
+    let c2 = Controls::new(vec![0.5], vec![vec![1.0, 0.0]]).unwrap();
+    let p = Problem::new(&u, x0, (0.0, 1.0)).controls(c2);
+    assert_eq!(invalid(p.solve(Dopri5::default(), &Options::default())), "controls");
+    // malformed controls
+    assert!(Controls::new(vec![0.0, 0.0], vec![vec![1.0], vec![1.0]]).is_err());
+    assert!(Controls::new(vec![0.0, 1.0], vec![vec![1.0], vec![1.0, 2.0]]).is_err());
+    assert!(Controls::new(vec![0.0, 1.0], vec![vec![1.0]]).is_err());
+    assert!(Controls::new(vec![], vec![]).is_err());
+    assert!(Controls::new(vec![0.0], vec![vec![f64::INFINITY]]).is_err());
+}
+
+#[test]
+fn event_that_cannot_be_located() {
+    // g changes sign over the step but is NaN inside it: Brent cannot converge
+    let f = model!(|_t, x: [S; 1]| vector![S::from(1.0) + x[0] * 0.0]);
+    let ev = Event::new(|t: f64, _x: &nalgebra::SVector<f64, 1>| if t > 0.2 && t < 0.8 { f64::NAN } else { t - 0.5 })
+        .direction(Direction::Rising);
+    let p = Problem::new(&f, vector![0.0], (0.0, 1.0)).event(ev);
+    let r = p.solve(ExplicitEuler, &Options::default().fixed(1.0));
+    assert!(matches!(r, Err(Error::EventLocation { index: 0, .. })), "{r:?}");
+}

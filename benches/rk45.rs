@@ -1,0 +1,90 @@
+//! RK45 on Lorenz, Arenstorf and Van der Pol (μ = 1): reckon vs a hand-written
+//! Dormand–Prince loop with the same controller vs the `ode_solvers` crate's Dopri5.
+
+mod handwritten;
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use ode_solvers as os;
+use reckon::methods::Dopri5;
+use reckon::problems::*;
+use reckon::{Options, Problem, System};
+use std::hint::black_box;
+use std::time::Duration;
+
+struct Os<const N: usize>(fn(f64, &[f64; N]) -> [f64; N]);
+
+impl<const N: usize> os::System<f64, os::SVector<f64, N>> for Os<N> {
+    fn system(&self, t: f64, y: &os::SVector<f64, N>, dy: &mut os::SVector<f64, N>) {
+        let a: [f64; N] = std::array::from_fn(|i| y[i]);
+        let r = (self.0)(t, &a);
+        for i in 0..N {
+            dy[i] = r[i];
+        }
+    }
+}
+
+fn ode_solvers_run<const N: usize>(f: fn(f64, &[f64; N]) -> [f64; N], x0: [f64; N], t_end: f64, tol: f64) -> (f64, u32) {
+    let y0 = os::SVector::<f64, N>::from(x0);
+    let mut s = os::Dopri5::from_param(
+        Os(f),
+        0.0,
+        t_end,
+        0.0,
+        y0,
+        tol,
+        tol,
+        0.9,
+        0.04,
+        0.2,
+        10.0,
+        t_end,
+        0.0,
+        100_000,
+        1000,
+        os::OutputType::Sparse,
+    );
+    let st = s.integrate().expect("ode_solvers failed");
+    (s.y_out().last().map(|y| y[0]).unwrap_or(f64::NAN), st.num_eval)
+}
+
+fn bench_problem<const N: usize>(
+    c: &mut Criterion,
+    name: &str,
+    sys: impl System<nalgebra::Const<N>>,
+    hand: fn(f64, &[f64; N]) -> [f64; N],
+    x0: [f64; N],
+    t_end: f64,
+) {
+    let mut g = c.benchmark_group(format!("rk45/{name}"));
+    g.sample_size(20).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(1));
+    let p = Problem::new(&sys, nalgebra::SVector::from(x0), (0.0, t_end));
+    for tol in [1e-4, 1e-6, 1e-8, 1e-10] {
+        let opts = Options::default().rtol(tol).atol(tol).dense(false);
+        let r = p.solve(Dopri5::default(), &opts).unwrap();
+        let h = handwritten::dopri5(hand, 0.0, t_end, x0, tol);
+        let (_, os_evals) = ode_solvers_run(hand, x0, t_end, tol);
+        eprintln!(
+            "{name} tol {tol:e}: rhs evals reckon {} hand-written {} ode_solvers {os_evals}",
+            r.stats.rhs_evals, h.evals
+        );
+        g.bench_with_input(BenchmarkId::new("reckon", tol), &tol, |b, _| {
+            b.iter(|| black_box(p.solve(Dopri5::default(), black_box(&opts)).unwrap().stats.accepted))
+        });
+        g.bench_with_input(BenchmarkId::new("hand-written", tol), &tol, |b, &tol| {
+            b.iter(|| black_box(handwritten::dopri5(hand, 0.0, t_end, black_box(x0), tol).accepted))
+        });
+        g.bench_with_input(BenchmarkId::new("ode_solvers", tol), &tol, |b, &tol| {
+            b.iter(|| black_box(ode_solvers_run(hand, black_box(x0), t_end, tol)))
+        });
+    }
+    g.finish();
+}
+
+fn rk45(c: &mut Criterion) {
+    bench_problem(c, "lorenz", lorenz(), handwritten::lorenz, [1.0, 1.0, 1.0], 20.0);
+    bench_problem(c, "arenstorf", arenstorf(), handwritten::arenstorf, ARENSTORF_Y0, ARENSTORF_T);
+    bench_problem(c, "vdp1", van_der_pol(1.0), handwritten::van_der_pol, [2.0, 0.0], 20.0);
+}
+
+criterion_group!(benches, rk45);
+criterion_main!(benches);

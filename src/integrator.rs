@@ -3,12 +3,12 @@
 
 use crate::control::{Controller, Weights, initial_step};
 use crate::controls::Controls;
-use crate::error::{Error, Quantity, Result};
+use crate::error::{Error, Result};
 use crate::events::{Event, locate};
 use crate::methods::{Failure, Method, Outcome};
 use crate::options::{Options, StepSize};
 use crate::solution::{DenseSegment, EventHit, Solution, Stats, Stiffness, horner};
-use crate::system::{Eval, System, finite};
+use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
@@ -121,6 +121,7 @@ where
     hits: Vec<EventHit<D>>,
     stiff_every: Option<usize>,
     stiff_count: (u32, u32),
+    stiff_countdown: usize,
     stiffness: Option<Stiffness>,
     done: bool,
 }
@@ -252,6 +253,7 @@ where
             hits: Vec::new(),
             stiff_every: opts.stiffness_check,
             stiff_count: (0, 0),
+            stiff_countdown: opts.stiffness_check.unwrap_or(0),
             stiffness: None,
             done: false,
         })
@@ -345,6 +347,11 @@ where
                 }
                 Outcome::Done { err } => err,
             };
+            // explicit kernels evaluate f unchecked: every result is checked here, once
+            // (v·0 is NaN exactly when v is ±∞ or NaN; the sum of zeros cannot overflow)
+            if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
+                return Err(self.method.diagnose(&mut self.f, self.t, &self.x, h, &self.x_new));
+            }
             if self.adaptive && !(err <= 1.0) {
                 self.f.stats.rejected += 1;
                 let fac = if err.is_finite() { self.controller.reject(err) } else { self.controller.min_factor };
@@ -353,7 +360,6 @@ where
                 continue;
             }
             let t_new = land.unwrap_or(self.t + h);
-            finite(self.x_new.as_slice(), t_new, Quantity::State)?;
             self.accept(h, err, land, t_new)?;
             return Ok(Some(self.t));
         }
@@ -425,8 +431,12 @@ where
     fn check_stiffness(&mut self, h: f64, t_new: f64) {
         let Some(every) = self.stiff_every else { return };
         let (stiff, nonstiff) = &mut self.stiff_count;
-        if !(self.f.stats.accepted as usize).is_multiple_of(every) && *stiff == 0 {
+        self.stiff_countdown -= 1;
+        if self.stiff_countdown > 0 && *stiff == 0 {
             return;
+        }
+        if self.stiff_countdown == 0 {
+            self.stiff_countdown = every;
         }
         let Some(hl) = self.method.stiffness(h, &self.x_new) else { return };
         if hl > 3.25 {

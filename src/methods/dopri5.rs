@@ -2,7 +2,7 @@
 //! `dopri5.f`): seven stages with FSAL, embedded 4th-order estimate, Shampine's
 //! 4th-order dense output, and Hairer's stiffness test.
 
-use super::{Method, Outcome, lincomb};
+use super::{Method, Outcome};
 use crate::control::{Controller, Weights};
 use crate::error::Result;
 use crate::system::{Eval, System};
@@ -77,7 +77,6 @@ where
     k: Vec<OVector<f64, D>>,
     y: Option<OVector<f64, D>>,
     y6: Option<OVector<f64, D>>,
-    err: Option<OVector<f64, D>>,
     fsal: bool,
 }
 
@@ -91,7 +90,6 @@ where
             k: Vec::new(),
             y: None,
             y6: None,
-            err: None,
             fsal: false,
         }
     }
@@ -126,7 +124,6 @@ where
         self.k = vec![x0.clone(); 7];
         self.y = Some(x0.clone());
         self.y6 = Some(x0.clone());
-        self.err = Some(x0.clone());
         f.rhs(t0, x0, &mut self.k[0])?;
         self.fsal = true;
         Ok(())
@@ -145,43 +142,76 @@ where
         w: &Weights<D>,
         adaptive: bool,
     ) -> Result<Outcome> {
-        let (Some(y), Some(y6), Some(err)) = (self.y.as_mut(), self.y6.as_mut(), self.err.as_mut()) else {
+        let (Some(y), Some(y6)) = (self.y.as_mut(), self.y6.as_mut()) else {
             return Err(crate::Error::invalid("method", "Dopri5::step called before init"));
         };
         let [k1, k2, k3, k4, k5, k6, k7] = &mut self.k[..] else {
             return Err(crate::Error::invalid("method", "Dopri5::step called before init"));
         };
         if !self.fsal {
-            f.rhs(t, x, k1)?;
+            f.rhs_unchecked(t, x, k1);
             self.fsal = true;
         }
-        lincomb(y, x, h, [(A[1][0], &*k1)]);
-        f.rhs(t + C[1] * h, y, k2)?;
-        lincomb(y, x, h, [(A[2][0], &*k1), (A[2][1], &*k2)]);
-        f.rhs(t + C[2] * h, y, k3)?;
-        lincomb(y, x, h, [(A[3][0], &*k1), (A[3][1], &*k2), (A[3][2], &*k3)]);
-        f.rhs(t + C[3] * h, y, k4)?;
-        lincomb(y, x, h, [(A[4][0], &*k1), (A[4][1], &*k2), (A[4][2], &*k3), (A[4][3], &*k4)]);
-        f.rhs(t + C[4] * h, y, k5)?;
-        lincomb(
-            y6,
-            x,
-            h,
-            [(A[5][0], &*k1), (A[5][1], &*k2), (A[5][2], &*k3), (A[5][3], &*k4), (A[5][4], &*k5)],
-        );
-        f.rhs(t + h, y6, k6)?;
-        lincomb(
-            x_new,
-            x,
-            h,
-            [(A[6][0], &*k1), (A[6][2], &*k3), (A[6][3], &*k4), (A[6][4], &*k5), (A[6][5], &*k6)],
-        );
-        f.rhs(t + h, x_new, k7)?;
+        let n = x.len();
+        // stage arguments written out as in the paper; slices of equal, known length
+        // let the compiler drop bounds checks and keep the loops tight
+        macro_rules! stage {
+            ($out:expr, $a0:expr, $k0:expr $(, $a:expr, $k:expr)*) => {{
+                let o = &mut $out.as_mut_slice()[..n];
+                let xs = &x.as_slice()[..n];
+                let k0 = &$k0.as_slice()[..n];
+                for i in 0..n {
+                    o[i] = xs[i] + h * ($a0 * k0[i] $(+ $a * $k.as_slice()[i])*);
+                }
+            }};
+        }
+        stage!(y, A[1][0], k1);
+        f.rhs_unchecked(t + C[1] * h, y, k2);
+        stage!(y, A[2][0], k1, A[2][1], k2);
+        f.rhs_unchecked(t + C[2] * h, y, k3);
+        stage!(y, A[3][0], k1, A[3][1], k2, A[3][2], k3);
+        f.rhs_unchecked(t + C[3] * h, y, k4);
+        stage!(y, A[4][0], k1, A[4][1], k2, A[4][2], k3, A[4][3], k4);
+        f.rhs_unchecked(t + C[4] * h, y, k5);
+        stage!(y6, A[5][0], k1, A[5][1], k2, A[5][2], k3, A[5][3], k4, A[5][4], k5);
+        f.rhs_unchecked(t + h, y6, k6);
+        stage!(x_new, A[6][0], k1, A[6][2], k3, A[6][3], k4, A[6][4], k5, A[6][5], k6);
+        f.rhs_unchecked(t + h, x_new, k7);
         if !adaptive {
             return Ok(Outcome::Done { err: 0.0 });
         }
-        lincomb_err(err, h, [(E[0], &*k1), (E[2], &*k3), (E[3], &*k4), (E[4], &*k5), (E[5], &*k6), (E[6], &*k7)]);
-        Ok(Outcome::Done { err: w.norm(err, x, x_new) })
+        let (xs, xn) = (&x.as_slice()[..n], &x_new.as_slice()[..n]);
+        let (rtol, atol) = (&w.rtol.as_slice()[..n], &w.atol.as_slice()[..n]);
+        let (k1, k3, k4, k5, k6, k7) = (k1.as_slice(), k3.as_slice(), k4.as_slice(), k5.as_slice(), k6.as_slice(), k7.as_slice());
+        let mut s = 0.0;
+        for i in 0..n {
+            let e = h * (E[0] * k1[i] + E[2] * k3[i] + E[3] * k4[i] + E[4] * k5[i] + E[5] * k6[i] + E[6] * k7[i]);
+            let sk = atol[i] + rtol[i] * xs[i].abs().max(xn[i].abs());
+            s += (e / sk) * (e / sk);
+        }
+        Ok(Outcome::Done { err: (s / n as f64).sqrt() })
+    }
+    /// The first stage derivative (in evaluation order) that is not finite.
+    fn diagnose<S: System<D>>(
+        &mut self,
+        _f: &mut Eval<'_, D, S>,
+        t: f64,
+        _x: &OVector<f64, D>,
+        h: f64,
+        x_new: &OVector<f64, D>,
+    ) -> crate::Error {
+        for (i, k) in self.k.iter().enumerate() {
+            if let Err(e) = crate::system::finite(k.as_slice(), t + C[i] * h, crate::error::Quantity::Derivative) {
+                return e;
+            }
+        }
+        crate::system::finite(x_new.as_slice(), t + h, crate::error::Quantity::State).err().unwrap_or(
+            crate::Error::NonFinite {
+                t: t + h,
+                quantity: crate::error::Quantity::State,
+                component: 0,
+            },
+        )
     }
     fn accept(&mut self) {
         self.k.swap(0, 6);
@@ -224,20 +254,5 @@ where
         let num = (&self.k[6] - &self.k[5]).norm();
         let den = (x_new - y6).norm();
         (den > 0.0).then(|| h.abs() * num / den)
-    }
-}
-
-#[inline(always)]
-fn lincomb_err<D: Dim, const K: usize>(out: &mut OVector<f64, D>, h: f64, terms: [(f64, &OVector<f64, D>); K])
-where
-    DefaultAllocator: Allocator<D>,
-{
-    let o = out.as_mut_slice();
-    for (i, oi) in o.iter_mut().enumerate() {
-        let mut s = 0.0;
-        for (a, k) in terms.iter() {
-            s += a * k[i];
-        }
-        *oi = h * s;
     }
 }

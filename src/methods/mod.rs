@@ -104,30 +104,33 @@ where
         c[1] -= x;
         Ok(())
     }
+    /// The step from `(t, x)` with `h` produced a non-finite error estimate or `x_new`:
+    /// say where. The default re-evaluates `f(t, x)` (a non-finite derivative there) and
+    /// otherwise blames the state at `t + h`.
+    fn diagnose<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t: f64,
+        x: &OVector<f64, D>,
+        h: f64,
+        x_new: &OVector<f64, D>,
+    ) -> crate::Error {
+        let mut k = x.clone();
+        if let Err(e) = f.rhs(t, x, &mut k) {
+            return e;
+        }
+        match crate::system::finite(x_new.as_slice(), t + h, crate::error::Quantity::State) {
+            Err(e) => e,
+            Ok(()) => crate::Error::NonFinite {
+                t: t + h,
+                quantity: crate::error::Quantity::State,
+                component: 0,
+            },
+        }
+    }
     /// Estimate `|h·λ|` of the dominant eigenvalue for the step just taken
     /// (before `accept`), for stiffness detection; `None` if the method has none.
     fn stiffness(&self, _h: f64, _x_new: &OVector<f64, D>) -> Option<f64> {
         None
-    }
-}
-
-/// `out ← x + h·Σ_j a_j·k_j` in one pass (stage arguments of a Runge–Kutta step).
-#[inline(always)]
-pub(crate) fn lincomb<D: Dim, const K: usize>(
-    out: &mut OVector<f64, D>,
-    x: &OVector<f64, D>,
-    h: f64,
-    terms: [(f64, &OVector<f64, D>); K],
-) where
-    DefaultAllocator: Allocator<D>,
-{
-    let o = out.as_mut_slice();
-    let xs = x.as_slice();
-    for i in 0..o.len() {
-        let mut s = 0.0;
-        for (a, k) in terms.iter() {
-            s += a * k[i];
-        }
-        o[i] = xs[i] + h * s;
     }
 }

@@ -2,7 +2,7 @@
 //! controller (Hairer's PI, β = 0.04), initial step (HINIT) and end-point rule as
 //! reckon's, used as the speed and work baseline in `benches/rk45.rs` and checked for
 //! equal work in `tests/handwritten.rs`.
-#![allow(dead_code, clippy::excessive_precision)]
+#![allow(dead_code, clippy::excessive_precision, clippy::needless_range_loop)]
 
 pub struct Run<const N: usize> {
     pub t: Vec<f64>,
@@ -43,7 +43,13 @@ const E5: f64 = -17253.0 / 339200.0;
 const E6: f64 = 22.0 / 525.0;
 const E7: f64 = -1.0 / 40.0;
 
-pub fn dopri5<const N: usize>(f: impl Fn(f64, &[f64; N]) -> [f64; N], t0: f64, t_end: f64, x0: [f64; N], tol: f64) -> Run<N> {
+pub fn dopri5<const N: usize>(
+    f: impl Fn(f64, &[f64; N]) -> [f64; N],
+    t0: f64,
+    t_end: f64,
+    x0: [f64; N],
+    tol: f64,
+) -> Run<N> {
     let (rtol, atol) = (tol, tol);
     let mut evals = 0u64;
     let mut eval = |t: f64, x: &[f64; N]| {
@@ -60,7 +66,11 @@ pub fn dopri5<const N: usize>(f: impl Fn(f64, &[f64; N]) -> [f64; N], t0: f64, t
         dnf += (k1[i] / sk).powi(2);
         dny += (x[i] / sk).powi(2);
     }
-    let mut h = if dnf <= 1e-10 || dny <= 1e-10 { 1e-6 } else { 0.01 * (dny / dnf).sqrt() };
+    let mut h = if dnf <= 1e-10 || dny <= 1e-10 {
+        1e-6
+    } else {
+        0.01 * (dny / dnf).sqrt()
+    };
     let mut y = [0.0; N];
     for i in 0..N {
         y[i] = x[i] + h * k1[i];
@@ -71,12 +81,22 @@ pub fn dopri5<const N: usize>(f: impl Fn(f64, &[f64; N]) -> [f64; N], t0: f64, t
         der2 += ((f1[i] - k1[i]) / (atol + rtol * x[i].abs())).powi(2);
     }
     let der12 = (der2.sqrt() / h).max(dnf.sqrt());
-    let h1 = if der12 <= 1e-15 { (h * 1e-3).max(1e-6) } else { (0.01 / der12).powf(0.2) };
+    let h1 = if der12 <= 1e-15 {
+        (h * 1e-3).max(1e-6)
+    } else {
+        (0.01 / der12).powf(0.2)
+    };
     h = (100.0 * h).min(h1);
 
     let mut err_old: f64 = 1e-4;
     let mut rejected_last = false;
-    let mut run = Run { t: vec![t], x: vec![x], evals: 0, accepted: 0, rejected: 0 };
+    let mut run = Run {
+        t: vec![t],
+        x: vec![x],
+        evals: 0,
+        accepted: 0,
+        rejected: 0,
+    };
     while t < t_end {
         let last = t + 1.01 * h >= t_end;
         if last {
@@ -142,7 +162,11 @@ pub fn dopri5<const N: usize>(f: impl Fn(f64, &[f64; N]) -> [f64; N], t0: f64, t
 }
 
 pub fn lorenz(_t: f64, y: &[f64; 3]) -> [f64; 3] {
-    [10.0 * (y[1] - y[0]), y[0] * (28.0 - y[2]) - y[1], y[0] * y[1] - 8.0 / 3.0 * y[2]]
+    [
+        10.0 * (y[1] - y[0]),
+        y[0] * (28.0 - y[2]) - y[1],
+        y[0] * y[1] - 8.0 / 3.0 * y[2],
+    ]
 }
 
 pub fn van_der_pol(_t: f64, y: &[f64; 2]) -> [f64; 2] {

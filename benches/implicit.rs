@@ -44,12 +44,28 @@ fn implicit(c: &mut Criterion) {
     let sh = hand.solve(ImplicitEuler::default(), &opts).unwrap().stats;
     eprintln!("robertson autodiff {sa:?}\nrobertson analytic {sh:?}");
     let mut g = c.benchmark_group("implicit-euler/robertson");
-    g.sample_size(20).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(2));
+    g.sample_size(20)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
     g.bench_function("autodiff-jacobian", |b| {
-        b.iter(|| black_box(auto.solve(ImplicitEuler::default(), black_box(&opts)).unwrap().stats.accepted))
+        b.iter(|| {
+            black_box(
+                auto.solve(ImplicitEuler::default(), black_box(&opts))
+                    .unwrap()
+                    .stats
+                    .accepted,
+            )
+        })
     });
     g.bench_function("analytic-jacobian", |b| {
-        b.iter(|| black_box(hand.solve(ImplicitEuler::default(), black_box(&opts)).unwrap().stats.accepted))
+        b.iter(|| {
+            black_box(
+                hand.solve(ImplicitEuler::default(), black_box(&opts))
+                    .unwrap()
+                    .stats
+                    .accepted,
+            )
+        })
     });
     // the Jacobian evaluation itself, where autodiff is paid for
     let y = vector![0.9, 2e-5, 0.1];

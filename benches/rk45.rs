@@ -23,7 +23,12 @@ impl<const N: usize> os::System<f64, os::SVector<f64, N>> for Os<N> {
     }
 }
 
-fn ode_solvers_run<const N: usize>(f: fn(f64, &[f64; N]) -> [f64; N], x0: [f64; N], t_end: f64, tol: f64) -> (f64, u32) {
+fn ode_solvers_run<const N: usize>(
+    f: fn(f64, &[f64; N]) -> [f64; N],
+    x0: [f64; N],
+    t_end: f64,
+    tol: f64,
+) -> (f64, u32) {
     let y0 = os::SVector::<f64, N>::from(x0);
     let mut s = os::Dopri5::from_param(
         Os(f),
@@ -58,7 +63,9 @@ fn bench_problem<const N: usize, H: Fn(f64, &[f64; N]) -> [f64; N] + Copy>(
     t_end: f64,
 ) {
     let mut g = c.benchmark_group(format!("rk45/{name}"));
-    g.sample_size(20).warm_up_time(Duration::from_millis(300)).measurement_time(Duration::from_secs(1));
+    g.sample_size(20)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1));
     let p = Problem::new(&sys, nalgebra::SVector::from(x0), (0.0, t_end));
     for tol in [1e-4, 1e-6, 1e-8, 1e-10] {
         let opts = Options::default().rtol(tol).atol(tol).dense(false);
@@ -83,9 +90,33 @@ fn bench_problem<const N: usize, H: Fn(f64, &[f64; N]) -> [f64; N] + Copy>(
 }
 
 fn rk45(c: &mut Criterion) {
-    bench_problem(c, "lorenz", lorenz(), handwritten::lorenz, handwritten::lorenz, [1.0, 1.0, 1.0], 20.0);
-    bench_problem(c, "arenstorf", arenstorf(), handwritten::arenstorf, handwritten::arenstorf, ARENSTORF_Y0, ARENSTORF_T);
-    bench_problem(c, "vdp1", van_der_pol(1.0), handwritten::van_der_pol, handwritten::van_der_pol, [2.0, 0.0], 20.0);
+    bench_problem(
+        c,
+        "lorenz",
+        lorenz(),
+        handwritten::lorenz,
+        handwritten::lorenz,
+        [1.0, 1.0, 1.0],
+        20.0,
+    );
+    bench_problem(
+        c,
+        "arenstorf",
+        arenstorf(),
+        handwritten::arenstorf,
+        handwritten::arenstorf,
+        ARENSTORF_Y0,
+        ARENSTORF_T,
+    );
+    bench_problem(
+        c,
+        "vdp1",
+        van_der_pol(1.0),
+        handwritten::van_der_pol,
+        handwritten::van_der_pol,
+        [2.0, 0.0],
+        20.0,
+    );
 }
 
 criterion_group!(benches, rk45);

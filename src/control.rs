@@ -46,7 +46,10 @@ impl Tolerance {
             }
         };
         if let Some(bad) = v.iter().find(|a| !(a.is_finite() && **a >= 0.0)) {
-            return Err(Error::invalid(what, format!("must be finite and non-negative, got {bad}")));
+            return Err(Error::invalid(
+                what,
+                format!("must be finite and non-negative, got {bad}"),
+            ));
         }
         Ok(v)
     }
@@ -110,6 +113,9 @@ pub struct Controller {
     pub beta: f64,
     /// Exponent α applied to the current error.
     pub alpha: f64,
+    /// Keep the step (factor 1) when the proposed factor falls in this range, so that
+    /// implicit methods can reuse their factorisation (RADAU5 uses [1, 1.2]).
+    pub hold: Option<(f64, f64)>,
     err_old: f64,
 }
 
@@ -127,8 +133,15 @@ impl Controller {
             max_factor: 10.0,
             beta,
             alpha: 1.0 / (q as f64 + 1.0) - 0.75 * beta,
+            hold: None,
             err_old: 1e-4,
         }
+    }
+
+    /// Keep `h` when the proposed factor lies in `[lo, hi]`.
+    pub fn with_hold(mut self, lo: f64, hi: f64) -> Self {
+        self.hold = Some((lo, hi));
+        self
     }
 
     /// Factor for the next step after an accepted step with error `err ≤ 1`.
@@ -137,7 +150,10 @@ impl Controller {
         let fac = err.powf(self.alpha) / self.err_old.powf(self.beta) / self.safety;
         let fac = fac.clamp(1.0 / self.max_factor, 1.0 / self.min_factor);
         self.err_old = err.max(1e-4);
-        1.0 / fac
+        match self.hold {
+            Some((lo, hi)) if (lo..=hi).contains(&(1.0 / fac)) => 1.0,
+            _ => 1.0 / fac,
+        }
     }
 
     /// Factor for the retry after a rejected step with error `err > 1`.

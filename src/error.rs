@@ -48,7 +48,9 @@ pub enum Error {
     },
     /// Newton's iteration for an implicit step did not converge, even with a fresh
     /// Jacobian and after shrinking the step.
-    #[error("Newton iteration diverged at t = {t} with h = {h} after {iterations} iterations (scaled residual {residual:e})")]
+    #[error(
+        "Newton iteration diverged at t = {t} with h = {h} after {iterations} iterations (scaled residual {residual:e})"
+    )]
     NewtonDiverged {
         /// Start of the failed step.
         t: f64,

@@ -20,6 +20,9 @@ pub enum Direction {
     Falling,
 }
 
+/// An event function `g(t, x)`.
+pub type EventFn<'a, D> = Box<dyn Fn(f64, &OVector<f64, D>) -> f64 + 'a>;
+
 /// An event: a zero of `g(t, x)`; a terminal one stops the integration there.
 ///
 /// ```
@@ -35,7 +38,7 @@ pub struct Event<'a, D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
-    pub(crate) g: Box<dyn Fn(f64, &OVector<f64, D>) -> f64 + 'a>,
+    pub(crate) g: EventFn<'a, D>,
     pub(crate) direction: Direction,
     pub(crate) terminal: bool,
 }
@@ -113,12 +116,7 @@ where
 {
     let (lo, hi) = (t0.min(t1), t0.max(t1));
     let tol = 2.0 * f64::EPSILON * lo.abs().max(hi.abs()) + f64::MIN_POSITIVE;
-    let problem = OnStep {
-        g: &*ev.g,
-        c,
-        t0,
-        h,
-    };
+    let problem = OnStep { g: &*ev.g, c, t0, h };
     let fail = |reason: String| Error::EventLocation { index, t0, t1, reason };
     let res = Executor::new(problem, BrentRoot::new(lo, hi, tol))
         .configure(|s| s.max_iters(200))

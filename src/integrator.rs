@@ -158,7 +158,10 @@ where
         let n_in = problem.system.inputs();
         let (segment, u) = match &problem.controls {
             None if n_in > 0 => {
-                return Err(Error::invalid("controls", format!("the model reads {n_in} inputs but no controls were given")));
+                return Err(Error::invalid(
+                    "controls",
+                    format!("the model reads {n_in} inputs but no controls were given"),
+                ));
             }
             None => (None, Vec::new()),
             Some(c) => {
@@ -169,7 +172,10 @@ where
                     ));
                 }
                 let k = c.segment(t0, dir).ok_or_else(|| {
-                    Error::invalid("controls", format!("t0 = {t0} is not after the first control time {}", c.times()[0]))
+                    Error::invalid(
+                        "controls",
+                        format!("t0 = {t0} is not after the first control time {}", c.times()[0]),
+                    )
                 })?;
                 (Some(k), c.values(k).to_vec())
             }
@@ -193,7 +199,10 @@ where
             (StepSize::Adaptive, None) => {
                 return Err(Error::invalid(
                     "step",
-                    format!("{} has no error estimate: give a fixed step (StepSize::Fixed)", method.name()),
+                    format!(
+                        "{} has no error estimate: give a fixed step (StepSize::Fixed)",
+                        method.name()
+                    ),
                 ));
             }
         };
@@ -221,7 +230,11 @@ where
             };
         }
         let keep_dense = opts.dense || !problem.events.is_empty();
-        let dense = if keep_dense { vec![x0.clone(); method.dense_len()] } else { Vec::new() };
+        let dense = if keep_dense {
+            vec![x0.clone(); method.dense_len()]
+        } else {
+            Vec::new()
+        };
         let g_prev = problem.events.iter().map(|e| (e.g)(t0, x0)).collect();
         Ok(Integrator {
             problem,
@@ -290,7 +303,11 @@ where
             return (h, None);
         }
         let grid = self.problem.t0 + (self.grid_k + 1) as f64 * self.dir * self.fixed_h;
-        let target = if self.dir * (grid - stop) >= -1e-10 * self.fixed_h { stop } else { grid };
+        let target = if self.dir * (grid - stop) >= -1e-10 * self.fixed_h {
+            stop
+        } else {
+            grid
+        };
         let h = target - self.t;
         match self.sub_h {
             Some(hs) if hs.abs() < h.abs() => (hs, None),
@@ -352,9 +369,13 @@ where
             if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
                 return Err(self.method.diagnose(&mut self.f, self.t, &self.x, h, &self.x_new));
             }
-            if self.adaptive && !(err <= 1.0) {
+            if self.adaptive && err > 1.0 {
                 self.f.stats.rejected += 1;
-                let fac = if err.is_finite() { self.controller.reject(err) } else { self.controller.min_factor };
+                let fac = if err.is_finite() {
+                    self.controller.reject(err)
+                } else {
+                    self.controller.min_factor
+                };
                 self.h = h.abs() * fac;
                 self.last_rejected = true;
                 continue;
@@ -438,7 +459,9 @@ where
         if self.stiff_countdown == 0 {
             self.stiff_countdown = every;
         }
-        let Some(hl) = self.method.stiffness(h, &self.x_new) else { return };
+        let Some(hl) = self.method.stiffness(h, &self.x_new) else {
+            return;
+        };
         if hl > 3.25 {
             *nonstiff = 0;
             *stiff += 1;
@@ -464,7 +487,11 @@ where
         for (i, ev) in events.iter().enumerate() {
             let g1 = (ev.g)(*t_new, &self.x_new);
             if ev.crosses(self.g_prev[i], g1) {
-                let te = if g1 == 0.0 { *t_new } else { locate(ev, i, &self.dense, self.t, h, *t_new)? };
+                let te = if g1 == 0.0 {
+                    *t_new
+                } else {
+                    locate(ev, i, &self.dense, self.t, h, *t_new)?
+                };
                 found.push((te, i));
             }
             self.g_prev[i] = g1;
@@ -472,7 +499,11 @@ where
         found.sort_by(|a, b| (self.dir * a.0).total_cmp(&(self.dir * b.0)));
         for (te, i) in found {
             let x = horner(&self.dense, (te - self.t) / h);
-            self.hits.push(EventHit { index: i, t: te, x: x.clone() });
+            self.hits.push(EventHit {
+                index: i,
+                t: te,
+                x: x.clone(),
+            });
             if events[i].terminal {
                 *t_new = te;
                 self.x_new = x;

@@ -123,7 +123,10 @@ impl Options {
                 Tolerance::PerComponent(v) => v,
             };
             if let Some(v) = vals.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-                return Err(Error::invalid(what, format!("must be finite and non-negative, got {v}")));
+                return Err(Error::invalid(
+                    what,
+                    format!("must be finite and non-negative, got {v}"),
+                ));
             }
         }
         let positive = |what: &'static str, v: f64| {

@@ -32,9 +32,11 @@ pub fn stiff_cosine() -> impl System<Const<1>> + Clone {
 
 /// Arenstorf orbit parameter μ.
 pub const ARENSTORF_MU: f64 = 0.012277471;
-/// Arenstorf initial state `(y1, y2, y1', y2')`.
+/// Arenstorf initial state `(y1, y2, y1', y2')`, digits as published.
+#[allow(clippy::excessive_precision)]
 pub const ARENSTORF_Y0: [f64; 4] = [0.994, 0.0, 0.0, -2.00158510637908252240537862224];
-/// Arenstorf period.
+/// Arenstorf period, digits as published.
+#[allow(clippy::excessive_precision)]
 pub const ARENSTORF_T: f64 = 17.0652165601579625588917206249;
 
 /// The Arenstorf orbit of the restricted three-body problem (HNW ODE I §II.0).
@@ -102,7 +104,11 @@ pub fn brusselator(n: usize) -> impl System<Dyn> + Clone {
             let (u, v) = (y[2 * i].clone(), y[2 * i + 1].clone());
             let diff = (left + right - at(i) * 2.0) * c;
             let uuv = u.clone() * u.clone() * v;
-            if own == 0 { uuv - u * 4.0 + 1.0 + diff } else { u * 3.0 - uuv + diff }
+            if own == 0 {
+                uuv - u * 4.0 + 1.0 + diff
+            } else {
+                u * 3.0 - uuv + diff
+            }
         })
     })
 }
@@ -111,7 +117,10 @@ pub fn brusselator(n: usize) -> impl System<Dyn> + Clone {
 pub fn brusselator_y0(n: usize) -> nalgebra::DVector<f64> {
     nalgebra::DVector::from_fn(2 * n, |k, _| {
         let x = (k / 2 + 1) as f64 / (n as f64 + 1.0);
-        if k % 2 == 0 { 1.0 + (2.0 * std::f64::consts::PI * x).sin() } else { 3.0 }
+        if k % 2 == 0 {
+            1.0 + (2.0 * std::f64::consts::PI * x).sin()
+        } else {
+            3.0
+        }
     })
 }
-

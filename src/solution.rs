@@ -137,7 +137,10 @@ where
         let (a, b) = (self.t[0], *self.t.last().unwrap_or(&self.t[0]));
         let (lo, hi) = (a.min(b), a.max(b));
         if !(t >= lo && t <= hi) {
-            return Err(Error::invalid("t", format!("{t} is outside the solved span [{lo}, {hi}]")));
+            return Err(Error::invalid(
+                "t",
+                format!("{t} is outside the solved span [{lo}, {hi}]"),
+            ));
         }
         let forward = self.dense[0].h > 0.0;
         // first segment whose end is at or past t in the direction of integration

@@ -147,7 +147,7 @@ macro_rules! model {
     (@fixed $m:expr, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
         $crate::ClosureModel::<$crate::nalgebra::Const<{ $n }>, _, _>::new(
             $m,
-            #[allow(unused_variables)]
+            #[allow(unused_variables, clippy::clone_on_copy)]
             #[inline(always)]
             move |$t: f64,
                   $x: &$crate::nalgebra::SVector<f64, { $n }>,
@@ -159,7 +159,7 @@ macro_rules! model {
                 type $s = f64;
                 $body
             },
-            #[allow(unused_variables)]
+            #[allow(unused_variables, clippy::clone_on_copy)]
             move |$t: f64,
                   $x: &$crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n }>, { $n }>,
                   $u: &[f64]|
@@ -175,7 +175,7 @@ macro_rules! model {
     (@dyn $m:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
         $crate::ClosureModel::<$crate::nalgebra::Dyn, _, _>::new(
             $m,
-            #[allow(unused_variables)]
+            #[allow(unused_variables, clippy::clone_on_copy)]
             move |$t: f64, $x: &$crate::nalgebra::DVector<f64>, $u: &[f64]| -> $crate::nalgebra::DVector<f64> {
                 #[allow(unused_imports)]
                 use $crate::num_dual::DualNum as _;
@@ -183,7 +183,7 @@ macro_rules! model {
                 type $s = f64;
                 $body
             },
-            #[allow(unused_variables)]
+            #[allow(unused_variables, clippy::clone_on_copy)]
             move |$t: f64,
                   $x: &$crate::nalgebra::DVector<$crate::num_dual::DualDVec64>,
                   $u: &[f64]|
@@ -271,9 +271,5 @@ pub(crate) fn finite(v: &[f64], t: f64, quantity: Quantity) -> Result<()> {
         return Ok(());
     }
     let component = v.iter().position(|a| !a.is_finite()).unwrap_or(0);
-    Err(Error::NonFinite {
-        t,
-        quantity,
-        component,
-    })
+    Err(Error::NonFinite { t, quantity, component })
 }

@@ -11,12 +11,16 @@ fn rk45_at_1e_10_is_within_10x_tolerance_of_exact() {
     let tol = 1e-10;
     let opts = Options::default().rtol(tol).atol(tol);
     let x0 = vector![1.0, 0.5];
-    let sol = Problem::new(rotation_decay(), x0, (0.0, 5.0)).solve(Dopri5::default(), &opts).unwrap();
+    let sol = Problem::new(rotation_decay(), x0, (0.0, 5.0))
+        .solve(Dopri5::default(), &opts)
+        .unwrap();
     for (t, x) in sol.t.iter().zip(&sol.x) {
         let e = (x - rotation_decay_exact(*t, &x0)).amax();
         assert!(e < 10.0 * tol, "rotation–decay error {e} at t = {t}");
     }
-    let sol = Problem::new(sin_u(), vector![0.5], (0.0, 5.0)).solve(Dopri5::default(), &opts).unwrap();
+    let sol = Problem::new(sin_u(), vector![0.5], (0.0, 5.0))
+        .solve(Dopri5::default(), &opts)
+        .unwrap();
     for (t, x) in sol.t.iter().zip(&sol.x) {
         let e = (x - sin_u_exact(*t, 0.5)).amax();
         assert!(e < 10.0 * tol, "sin u error {e} at t = {t}");
@@ -45,7 +49,10 @@ fn dense_output_is_fourth_order_accurate_between_steps() {
         })
         .collect();
     let p_obs = fit_order(&hs, &errs).unwrap();
-    assert!((p_obs - 5.0).abs() < 0.3, "dense local error order {p_obs}, errors {errs:?}");
+    assert!(
+        (p_obs - 5.0).abs() < 0.3,
+        "dense local error order {p_obs}, errors {errs:?}"
+    );
     // the interpolant reproduces the step ends
     let sol = p.solve(Dopri5::default(), &Options::default()).unwrap();
     for (t, x) in sol.t.iter().zip(&sol.x) {
@@ -60,7 +67,9 @@ fn dense_output_is_fourth_order_accurate_between_steps() {
 fn arenstorf_orbit_closes() {
     let opts = Options::default().rtol(1e-11).atol(1e-11);
     let y0 = arenstorf_y0();
-    let sol = Problem::new(arenstorf(), y0, (0.0, ARENSTORF_T)).solve(Dopri5::default(), &opts).unwrap();
+    let sol = Problem::new(arenstorf(), y0, (0.0, ARENSTORF_T))
+        .solve(Dopri5::default(), &opts)
+        .unwrap();
     let (t, y) = sol.last();
     assert_eq!(t, ARENSTORF_T);
     let e = (y - y0).amax();
@@ -79,7 +88,9 @@ fn error_falls_with_tolerance() {
     let errs: Vec<f64> = tols
         .iter()
         .map(|&tol| {
-            let s = p.solve(Dopri5::default(), &Options::default().rtol(tol).atol(tol)).unwrap();
+            let s = p
+                .solve(Dopri5::default(), &Options::default().rtol(tol).atol(tol))
+                .unwrap();
             (s.last().1 - exact).amax()
         })
         .collect();
@@ -90,8 +101,13 @@ fn error_falls_with_tolerance() {
 #[test]
 fn per_component_tolerances_and_h_max() {
     let x0 = vector![1.0, 0.5];
-    let opts = Options::default().rtol(vec![1e-9, 1e-9]).atol(vec![1e-12, 1e-12]).h_max(0.05);
-    let sol = Problem::new(rotation_decay(), x0, (0.0, 1.0)).solve(Dopri5::default(), &opts).unwrap();
+    let opts = Options::default()
+        .rtol(vec![1e-9, 1e-9])
+        .atol(vec![1e-12, 1e-12])
+        .h_max(0.05);
+    let sol = Problem::new(rotation_decay(), x0, (0.0, 1.0))
+        .solve(Dopri5::default(), &opts)
+        .unwrap();
     for w in sol.t.windows(2) {
         assert!(w[1] - w[0] <= 0.05 + 1e-15);
     }
@@ -108,10 +124,16 @@ fn adaptive_implicit_euler_error_scales_with_sqrt_tolerance() {
     let tols = [1e-3, 1e-4, 1e-5, 1e-6];
     let mut errs = Vec::new();
     for tol in tols {
-        let sol = p.solve(ImplicitEuler::default(), &Options::default().rtol(tol).atol(tol)).unwrap();
+        let sol = p
+            .solve(ImplicitEuler::default(), &Options::default().rtol(tol).atol(tol))
+            .unwrap();
         errs.push((sol.last().1 - exact).amax());
         assert_eq!(sol.stats.jacobian_evals, 1, "J is reused across steps: {:?}", sol.stats);
-        assert_eq!(sol.stats.newton_iterations, 2 * sol.stats.accepted, "linear: converged in 2 iterations");
+        assert_eq!(
+            sol.stats.newton_iterations,
+            2 * sol.stats.accepted,
+            "linear: converged in 2 iterations"
+        );
     }
     let slope = fit_order(&tols, &errs).unwrap();
     assert!((slope - 0.5).abs() < 0.1, "error ∝ tol^{slope}: {errs:?}");

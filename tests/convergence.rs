@@ -75,12 +75,22 @@ fn sin_u_orders() {
 fn unicycle_held_inputs_orders() {
     let controls = Controls::new(
         vec![0.0, 1.0, 2.0, 3.0, 4.0],
-        vec![vec![1.0, 0.8], vec![2.0, -0.5], vec![1.5, 0.0], vec![0.5, 2.0], vec![0.0, 0.0]],
+        vec![
+            vec![1.0, 0.8],
+            vec![2.0, -0.5],
+            vec![1.5, 0.0],
+            vec![0.5, 2.0],
+            vec![0.0, 0.0],
+        ],
     )
     .unwrap();
     let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.3], (0.0, 4.0)).controls(controls);
     let exact_sol = p.solve(Exact::new(unicycle::flow), &Options::default()).unwrap();
-    assert_eq!(exact_sol.t, vec![0.0, 1.0, 2.0, 3.0, 4.0], "exact flow: one step per interval");
+    assert_eq!(
+        exact_sol.t,
+        vec![0.0, 1.0, 2.0, 3.0, 4.0],
+        "exact flow: one step per interval"
+    );
     let exact = *exact_sol.last().1;
     // steps that do not divide the intervals: breakpoints must still be landed on
     let hs: Vec<f64> = halvings(0.3 / 8.0, 5);

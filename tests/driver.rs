@@ -9,7 +9,11 @@ use reckon::{Controls, Direction, Event, Options, Problem, model};
 fn controls() -> Controls {
     // irregular control times that no step size divides
     let times = vec![0.0, 0.13, 0.5, 1.1, 1.7, 2.0, 2.9];
-    let values = times.iter().enumerate().map(|(k, _)| vec![1.0 + 0.1 * k as f64, (-1f64).powi(k as i32) * 0.7]).collect();
+    let values = times
+        .iter()
+        .enumerate()
+        .map(|(k, _)| vec![1.0 + 0.1 * k as f64, (-1f64).powi(k as i32) * 0.7])
+        .collect();
     Controls::new(times, values).unwrap()
 }
 
@@ -19,10 +23,14 @@ fn breakpoints_and_t_end_are_hit_exactly() {
     let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 2.9)).controls(c.clone());
     let extra = 0.77;
     let runs = [
-        p.solve(Dopri5::default(), &Options::default().breakpoints([extra])).unwrap(),
-        p.solve(ImplicitEuler::default(), &Options::default().breakpoints([extra])).unwrap(),
-        p.solve(ExplicitEuler, &Options::default().fixed(0.1).breakpoints([extra])).unwrap(),
-        p.solve(Exact::new(unicycle::flow), &Options::default().breakpoints([extra])).unwrap(),
+        p.solve(Dopri5::default(), &Options::default().breakpoints([extra]))
+            .unwrap(),
+        p.solve(ImplicitEuler::default(), &Options::default().breakpoints([extra]))
+            .unwrap(),
+        p.solve(ExplicitEuler, &Options::default().fixed(0.1).breakpoints([extra]))
+            .unwrap(),
+        p.solve(Exact::new(unicycle::flow), &Options::default().breakpoints([extra]))
+            .unwrap(),
     ];
     for sol in &runs {
         for b in c.times().iter().chain([&extra]) {
@@ -42,7 +50,12 @@ fn breakpoints_and_t_end_are_hit_exactly() {
     // the exact run takes one step per interval (plus the extra breakpoint)
     assert_eq!(runs[3].t.len(), c.times().len() + 1);
     // and RK45 at tight tolerance agrees with it everywhere it stopped
-    let tight = p.solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12).breakpoints([extra])).unwrap();
+    let tight = p
+        .solve(
+            Dopri5::default(),
+            &Options::default().rtol(1e-12).atol(1e-12).breakpoints([extra]),
+        )
+        .unwrap();
     let exact = &runs[3];
     for (t, x) in exact.t.iter().zip(&exact.x) {
         let k = tight.t.iter().position(|s| s == t).unwrap();
@@ -54,7 +67,9 @@ fn breakpoints_and_t_end_are_hit_exactly() {
 fn backward_integration_returns_to_start() {
     let x0 = vector![1.0, 0.5];
     let p = Problem::new(rotation_decay(), x0, (0.0, 2.0));
-    let fwd = p.solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12)).unwrap();
+    let fwd = p
+        .solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .unwrap();
     let back = Problem::new(rotation_decay(), *fwd.last().1, (2.0, 0.0))
         .solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap();
@@ -65,16 +80,23 @@ fn backward_integration_returns_to_start() {
     let mid = back.at(1.234).unwrap();
     assert!((mid - rotation_decay_exact(1.234, &x0)).amax() < 1e-9);
     // fixed-step backward Euler lands on the grid 2 − k·h
-    let ee = Problem::new(rotation_decay(), x0, (2.0, 0.0)).solve(ExplicitEuler, &Options::default().fixed(0.25)).unwrap();
+    let ee = Problem::new(rotation_decay(), x0, (2.0, 0.0))
+        .solve(ExplicitEuler, &Options::default().fixed(0.25))
+        .unwrap();
     assert_eq!(ee.t, (0..=8).map(|k| 2.0 - k as f64 * 0.25).collect::<Vec<_>>());
     // backward through control intervals uses the input of the interval being crossed
     let c = controls();
     let up = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 2.9)).controls(c.clone());
-    let end = *up.solve(Exact::new(unicycle::flow), &Options::default()).unwrap().last().1;
+    let end = *up
+        .solve(Exact::new(unicycle::flow), &Options::default())
+        .unwrap()
+        .last()
+        .1;
     let down = Problem::new(unicycle::model(), end, (2.9, 0.0)).controls(c);
     for sol in [
         down.solve(Exact::new(unicycle::flow), &Options::default()).unwrap(),
-        down.solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12)).unwrap(),
+        down.solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12))
+            .unwrap(),
     ] {
         assert!(sol.last().1.amax() < 1e-10, "{}: {}", sol.method, sol.last().1);
     }
@@ -88,7 +110,9 @@ fn events_are_located_on_dense_output() {
     let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 10.0))
         .event(Event::new(zero))
         .event(Event::new(zero).direction(Direction::Falling));
-    let sol = p.solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
+    let sol = p
+        .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .unwrap();
     let pi = std::f64::consts::PI;
     let all: Vec<f64> = sol.events.iter().filter(|e| e.index == 0).map(|e| e.t).collect();
     let falling: Vec<f64> = sol.events.iter().filter(|e| e.index == 1).map(|e| e.t).collect();
@@ -100,8 +124,11 @@ fn events_are_located_on_dense_output() {
     assert!((falling[1] - 2.5 * pi).abs() < 1e-9);
     assert_eq!(sol.last().0, 10.0);
     // terminal: stops at the first rising zero, 3π/2, with x there
-    let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 10.0)).event(Event::new(zero).direction(Direction::Rising).terminal());
-    let sol = p.solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
+    let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 10.0))
+        .event(Event::new(zero).direction(Direction::Rising).terminal());
+    let sol = p
+        .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .unwrap();
     assert!((sol.last().0 - 1.5 * pi).abs() < 1e-9);
     assert!(sol.last().1[0].abs() < 1e-9 && (sol.last().1[1] - 1.0).abs() < 1e-9);
     assert_eq!(sol.events.len(), 1);
@@ -112,7 +139,11 @@ fn stepping_and_iterating_match_solve() {
     let p = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 5.0));
     let opts = Options::default();
     let sol = p.solve(Dopri5::default(), &opts).unwrap();
-    let steps: Vec<(f64, SVector<f64, 2>)> = p.integrator(Dopri5::default(), &opts).unwrap().map(|r| r.unwrap()).collect();
+    let steps: Vec<(f64, SVector<f64, 2>)> = p
+        .integrator(Dopri5::default(), &opts)
+        .unwrap()
+        .map(|r| r.unwrap())
+        .collect();
     assert_eq!(steps.len() + 1, sol.t.len());
     for (k, (t, x)) in steps.iter().enumerate() {
         assert_eq!(*t, sol.t[k + 1]);
@@ -134,13 +165,19 @@ fn stepping_and_iterating_match_solve() {
 fn dynamic_brusselator_with_faer_lu() {
     let n = 40;
     let p = Problem::new(brusselator(n), brusselator_y0(n), (0.0, 2.0));
-    let rk = p.solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-10)).unwrap();
-    let ie = p.solve(ImplicitEuler::default(), &Options::default().rtol(1e-6).atol(1e-6)).unwrap();
+    let rk = p
+        .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-10))
+        .unwrap();
+    let ie = p
+        .solve(ImplicitEuler::default(), &Options::default().rtol(1e-6).atol(1e-6))
+        .unwrap();
     let diff: DVector<f64> = ie.last().1 - rk.last().1;
     assert!(diff.amax() < 2e-2, "difference {}", diff.amax());
     assert!(ie.stats.lu_decompositions > 0 && ie.stats.jacobian_evals >= 1);
     // the system is stiff for RK45 (diffusion eigenvalue ≈ −4·α(n+1)² ≈ −134): more steps than needed for accuracy
-    let fixed = p.solve(ImplicitEuler::default(), &Options::default().fixed(1e-3)).unwrap();
+    let fixed = p
+        .solve(ImplicitEuler::default(), &Options::default().fixed(1e-3))
+        .unwrap();
     let d2: DVector<f64> = fixed.last().1 - rk.last().1;
     assert!(d2.amax() < 5e-3, "fixed-step implicit Euler differs by {}", d2.amax());
 }

@@ -12,23 +12,50 @@ fn nan_after_t1_is_reported_where_it_happens() {
     let f = model!(|t, x: [S; 1]| vector![if t > 1.0 { S::from(f64::NAN) } else { -x[0] }]);
     let p = Problem::new(&f, vector![1.0], (0.0, 3.0));
     let check = |r: reckon::Result<reckon::Solution<_>>, what: &str, h: f64| match r {
-        Err(Error::NonFinite { t, quantity: Quantity::Derivative, component: 0 }) => {
+        Err(Error::NonFinite {
+            t,
+            quantity: Quantity::Derivative,
+            component: 0,
+        }) => {
             assert!(t > 1.0 && t <= 1.0 + h, "{what}: reported at t = {t}")
         }
         other => panic!("{what}: expected NonFinite, got {:?}", other.map(|s| s.last().0)),
     };
     check(p.solve(Dopri5::default(), &Options::default()), "rk45", 0.5);
-    check(p.solve(ImplicitEuler::default(), &Options::default()), "implicit Euler", 0.5);
-    check(p.solve(ExplicitEuler, &Options::default().fixed(0.01)), "explicit Euler", 0.01);
-    check(p.solve(ImplicitEuler::default(), &Options::default().fixed(0.01)), "implicit Euler fixed", 0.01);
-    check(p.solve(Dopri5::default(), &Options::default().fixed(0.01)), "rk45 fixed", 0.01);
+    check(
+        p.solve(ImplicitEuler::default(), &Options::default()),
+        "implicit Euler",
+        0.5,
+    );
+    check(
+        p.solve(ExplicitEuler, &Options::default().fixed(0.01)),
+        "explicit Euler",
+        0.01,
+    );
+    check(
+        p.solve(ImplicitEuler::default(), &Options::default().fixed(0.01)),
+        "implicit Euler fixed",
+        0.01,
+    );
+    check(
+        p.solve(Dopri5::default(), &Options::default().fixed(0.01)),
+        "rk45 fixed",
+        0.01,
+    );
 }
 
 #[test]
 fn state_overflow_is_non_finite_state() {
     let f = model!(|_t, x: [S; 1]| vector![x[0] * 0.0 + 1e307]);
     let r = Problem::new(&f, vector![1.7e308], (0.0, 2.0)).solve(ExplicitEuler, &Options::default().fixed(1.0));
-    assert_eq!(r.unwrap_err(), Error::NonFinite { t: 1.0, quantity: Quantity::State, component: 0 });
+    assert_eq!(
+        r.unwrap_err(),
+        Error::NonFinite {
+            t: 1.0,
+            quantity: Quantity::State,
+            component: 0
+        }
+    );
 }
 
 #[test]
@@ -36,7 +63,17 @@ fn infinite_jacobian_is_non_finite_jacobian() {
     // f = −√x has f(0) = 0 but ∂f/∂x = −1/(2√x) = −∞ at 0
     let f = model!(|_t, x: [S; 1]| vector![-x[0].sqrt()]);
     let r = Problem::new(&f, vector![0.0], (0.0, 1.0)).solve(ImplicitEuler::default(), &Options::default().fixed(0.1));
-    assert!(matches!(r, Err(Error::NonFinite { t: 0.0, quantity: Quantity::Jacobian, .. })), "{r:?}");
+    assert!(
+        matches!(
+            r,
+            Err(Error::NonFinite {
+                t: 0.0,
+                quantity: Quantity::Jacobian,
+                ..
+            })
+        ),
+        "{r:?}"
+    );
 }
 
 /// x' = x² blows up at t = 1; the implicit Euler equation x₁ = x₀ + h x₁² has no real
@@ -46,7 +83,12 @@ fn newton_divergence_on_blow_up() {
     let f = model!(|_t, x: [S; 1]| vector![x[0] * x[0]]);
     let r = Problem::new(&f, vector![1.0], (0.0, 2.0)).solve(ImplicitEuler::default(), &Options::default().fixed(0.4));
     match r {
-        Err(Error::NewtonDiverged { t, h, iterations, residual }) => {
+        Err(Error::NewtonDiverged {
+            t,
+            h,
+            iterations,
+            residual,
+        }) => {
             assert!(t > 0.4 && t < 1.0, "t = {t}");
             assert!(h > 0.0 && h < 0.4 / 512.0, "h = {h}");
             assert!(iterations >= 1 && residual > 0.0);
@@ -82,7 +124,8 @@ fn step_size_underflow_at_blow_up() {
 #[test]
 fn step_limit() {
     let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
-    let r = Problem::new(&f, vector![1.0, 0.0], (0.0, 100.0)).solve(Dopri5::default(), &Options::default().max_steps(10));
+    let r =
+        Problem::new(&f, vector![1.0, 0.0], (0.0, 100.0)).solve(Dopri5::default(), &Options::default().max_steps(10));
     match r {
         Err(Error::MaxSteps { t, steps: 10 }) => assert!(t > 0.0 && t < 100.0),
         other => panic!("expected MaxSteps, got {other:?}"),
@@ -107,16 +150,28 @@ fn invalid_options_and_inputs() {
     let d = Options::default();
     assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().rtol(-1e-6))), "rtol");
     assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().atol(f64::NAN))), "atol");
-    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().rtol(0.0).atol(0.0))), "atol");
+    assert_eq!(
+        invalid(p.solve(Dopri5::default(), &d.clone().rtol(0.0).atol(0.0))),
+        "atol"
+    );
     assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().rtol(vec![1e-6]))), "rtol");
     assert_eq!(invalid(p.solve(ExplicitEuler, &d.clone().fixed(0.0))), "step");
     assert_eq!(invalid(p.solve(ExplicitEuler, &d.clone().fixed(-0.1))), "step");
-    assert_eq!(invalid(p.solve(ExplicitEuler, &d.clone().step(StepSize::Fixed(f64::INFINITY)))), "step");
+    assert_eq!(
+        invalid(p.solve(ExplicitEuler, &d.clone().step(StepSize::Fixed(f64::INFINITY)))),
+        "step"
+    );
     assert_eq!(invalid(p.solve(ExplicitEuler, &d)), "step"); // adaptive without an estimate
     assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().h0(-1.0))), "h0");
     assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().h_max(0.0))), "h_max");
-    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().max_steps(0))), "max_steps");
-    assert_eq!(invalid(p.solve(Dopri5::default(), &d.clone().breakpoints([f64::NAN]))), "breakpoints");
+    assert_eq!(
+        invalid(p.solve(Dopri5::default(), &d.clone().max_steps(0))),
+        "max_steps"
+    );
+    assert_eq!(
+        invalid(p.solve(Dopri5::default(), &d.clone().breakpoints([f64::NAN]))),
+        "breakpoints"
+    );
     let empty = Problem::new(&f, x0, (1.0, 1.0));
     assert_eq!(invalid(empty.solve(Dopri5::default(), &d)), "span");
     let inf = Problem::new(&f, x0, (0.0, f64::INFINITY));
@@ -136,7 +191,10 @@ fn dimension_and_control_mismatches() {
     // a model with inputs but no controls, and controls of the wrong width
     let u = unicycle::model();
     let x0 = vector![0.0, 0.0, 0.0];
-    assert_eq!(invalid(Problem::new(&u, x0, (0.0, 1.0)).solve(Exact::new(unicycle::flow), &Options::default())), "controls");
+    assert_eq!(
+        invalid(Problem::new(&u, x0, (0.0, 1.0)).solve(Exact::new(unicycle::flow), &Options::default())),
+        "controls"
+    );
     let c1 = Controls::new(vec![0.0], vec![vec![1.0]]).unwrap();
     let p = Problem::new(&u, x0, (0.0, 1.0)).controls(c1);
     assert_eq!(invalid(p.solve(Dopri5::default(), &Options::default())), "controls");

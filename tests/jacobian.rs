@@ -7,7 +7,12 @@ use reckon::models::unicycle;
 use reckon::problems::*;
 use reckon::{System, model};
 
-fn autodiff<const N: usize>(f: &impl System<nalgebra::Const<N>>, t: f64, x: SVector<f64, N>, u: &[f64]) -> SMatrix<f64, N, N> {
+fn autodiff<const N: usize>(
+    f: &impl System<nalgebra::Const<N>>,
+    t: f64,
+    x: SVector<f64, N>,
+    u: &[f64],
+) -> SMatrix<f64, N, N> {
     let mut j = SMatrix::zeros();
     f.jacobian(t, &x, u, &mut j);
     j
@@ -28,17 +33,39 @@ fn unicycle_jacobian() {
 
 #[test]
 fn problem_jacobians() {
-    assert_close(&autodiff(&rotation_decay(), 0.0, vector![0.3, -0.2], &[]), &Matrix2::new(-0.5, -2.0, 2.0, -0.5), "rotation–decay");
-    assert_close(&autodiff(&sin_u(), 0.0, vector![0.9], &[]), &Matrix1::new(0.9f64.cos()), "sin u");
-    assert_close(&autodiff(&stiff_cosine(), 2.0, vector![0.1], &[]), &Matrix1::new(-1000.0), "stiff cosine");
+    assert_close(
+        &autodiff(&rotation_decay(), 0.0, vector![0.3, -0.2], &[]),
+        &Matrix2::new(-0.5, -2.0, 2.0, -0.5),
+        "rotation–decay",
+    );
+    assert_close(
+        &autodiff(&sin_u(), 0.0, vector![0.9], &[]),
+        &Matrix1::new(0.9f64.cos()),
+        "sin u",
+    );
+    assert_close(
+        &autodiff(&stiff_cosine(), 2.0, vector![0.1], &[]),
+        &Matrix1::new(-1000.0),
+        "stiff cosine",
+    );
     let (y1, y2, mu) = (1.4, -0.3, 1000.0);
     let vdp = Matrix2::new(0.0, 1.0, -2.0 * mu * y1 * y2 - 1.0, mu * (1.0 - y1 * y1));
-    assert_close(&autodiff(&van_der_pol(mu), 0.0, vector![y1, y2], &[]), &vdp, "Van der Pol");
+    assert_close(
+        &autodiff(&van_der_pol(mu), 0.0, vector![y1, y2], &[]),
+        &vdp,
+        "Van der Pol",
+    );
     let y = vector![0.9, 2e-5, 0.1];
     let rob = Matrix3::new(
-        -0.04, 1e4 * y[2], 1e4 * y[1],
-        0.04, -6e7 * y[1] - 1e4 * y[2], -1e4 * y[1],
-        0.0, 6e7 * y[1], 0.0,
+        -0.04,
+        1e4 * y[2],
+        1e4 * y[1],
+        0.04,
+        -6e7 * y[1] - 1e4 * y[2],
+        -1e4 * y[1],
+        0.0,
+        6e7 * y[1],
+        0.0,
     );
     assert_close(&autodiff(&robertson(), 0.0, y, &[]), &rob, "Robertson");
     let y = vector![1.0, 2.0, 3.0];
@@ -50,10 +77,16 @@ fn problem_jacobians() {
     let r2 = ((y[0] - mu1).powi(2) + y[1].powi(2)).sqrt();
     // ∂/∂y of −m (y − c)/r³ terms: −m (I/r³ − 3 (y−c)(y−c)ᵀ/r⁵)
     let (ax, ay, bx, by) = (y[0] + mu, y[1], y[0] - mu1, y[1]);
-    let j11 = 1.0 - mu1 * (1.0 / r1.powi(3) - 3.0 * ax * ax / r1.powi(5)) - mu * (1.0 / r2.powi(3) - 3.0 * bx * bx / r2.powi(5));
+    let j11 = 1.0
+        - mu1 * (1.0 / r1.powi(3) - 3.0 * ax * ax / r1.powi(5))
+        - mu * (1.0 / r2.powi(3) - 3.0 * bx * bx / r2.powi(5));
     let j12 = mu1 * 3.0 * ax * ay / r1.powi(5) + mu * 3.0 * bx * by / r2.powi(5);
-    let j22 = 1.0 - mu1 * (1.0 / r1.powi(3) - 3.0 * ay * ay / r1.powi(5)) - mu * (1.0 / r2.powi(3) - 3.0 * by * by / r2.powi(5));
-    let aren = Matrix4::new(0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, j11, j12, 0.0, 2.0, j12, j22, -2.0, 0.0);
+    let j22 = 1.0
+        - mu1 * (1.0 / r1.powi(3) - 3.0 * ay * ay / r1.powi(5))
+        - mu * (1.0 / r2.powi(3) - 3.0 * by * by / r2.powi(5));
+    let aren = Matrix4::new(
+        0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, j11, j12, 0.0, 2.0, j12, j22, -2.0, 0.0,
+    );
     assert_close(&autodiff(&arenstorf(), 0.0, y, &[]), &aren, "Arenstorf");
 }
 

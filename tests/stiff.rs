@@ -5,16 +5,22 @@ use reckon::methods::{Dopri5, ExplicitEuler, ImplicitEuler};
 use reckon::problems::*;
 use reckon::{Error, Options, Problem};
 
-
 #[test]
 fn stiff_cosine_implicit_bounded_explicit_blows_up() {
     let p = Problem::new(stiff_cosine(), vector![1.0], (0.0, 10.0));
     let opts = Options::default().fixed(0.1);
     let sol = p.solve(ImplicitEuler::default(), &opts).unwrap();
     assert_eq!(sol.t.len(), 101);
+    // linear problem, fixed h: one Jacobian, one LU, reused for all 100 steps
+    assert_eq!((sol.stats.jacobian_evals, sol.stats.lu_decompositions), (1, 1));
     for (t, x) in sol.t.iter().zip(&sol.x) {
         // BE on this problem: x_n − cos t_n = O(h/1000·|cos'|)-ish; stays within 1e-3
-        assert!((x[0] - t.cos()).abs() < 1e-3, "implicit Euler at t = {t}: {} vs cos t = {}", x[0], t.cos());
+        assert!(
+            (x[0] - t.cos()).abs() < 1e-3,
+            "implicit Euler at t = {t}: {} vs cos t = {}",
+            x[0],
+            t.cos()
+        );
     }
     // explicit Euler amplifies the deviation by |1 − 100| = 99 per step
     let ee = p.solve(ExplicitEuler, &opts).unwrap();
@@ -41,13 +47,23 @@ fn van_der_pol_mu_1000_implicit_finishes_rk45_struggles() {
     // DP5 is pinned by stability (|hλ| ≤ 3.3 with λ ≈ −3000 on the slow branches)
     let rk = p.solve(Dopri5::default(), &opts.clone().max_steps(5_000_000)).unwrap();
     let rk_steps = rk.stats.accepted + rk.stats.rejected;
-    assert!(rk_steps >= 10 * ie_steps, "RK45 {rk_steps} steps vs implicit Euler {ie_steps}");
+    assert!(
+        rk_steps >= 10 * ie_steps,
+        "RK45 {rk_steps} steps vs implicit Euler {ie_steps}"
+    );
     let st = rk.stiffness.expect("DP5's stiffness test must fire on VdP μ = 1000");
     assert!(st.t < 10.0 && st.h_lambda > 3.25, "{st:?}");
     // reference y1(3000) = −1.51060694 (scipy Radau, rtol = atol = 1e-12 and 1e-10 agree)
-    assert!((rk.last().1[0] + 1.51060694).abs() < 1e-2, "RK45 y1(3000) = {}", rk.last().1[0]);
+    assert!(
+        (rk.last().1[0] + 1.51060694).abs() < 1e-2,
+        "RK45 y1(3000) = {}",
+        rk.last().1[0]
+    );
     // with the default step limit the run stops with a typed error, not a hang
-    assert!(matches!(p.solve(Dopri5::default(), &opts), Err(Error::MaxSteps { steps: 100_000, .. })));
+    assert!(matches!(
+        p.solve(Dopri5::default(), &opts),
+        Err(Error::MaxSteps { steps: 100_000, .. })
+    ));
 }
 
 /// Published reference (Test Set VDPOLM, Table II.8.1): y(2000) = (1.706167732170469, −0.8928097010248125e-3).
@@ -59,7 +75,9 @@ fn van_der_pol_converges_to_published_reference() {
     let errs: Vec<f64> = tols
         .iter()
         .map(|&tol| {
-            let sol = p.solve(ImplicitEuler::default(), &Options::default().rtol(tol).atol(tol * 1e-3)).unwrap();
+            let sol = p
+                .solve(ImplicitEuler::default(), &Options::default().rtol(tol).atol(tol * 1e-3))
+                .unwrap();
             (sol.last().1[0] - 1.706167732170469).abs()
         })
         .collect();

@@ -1,4 +1,5 @@
 //! Dormand–Prince 5(4): tableau identities, order conditions, dense output weights.
+#![allow(clippy::needless_range_loop)] // index notation mirrors the order conditions
 
 use reckon::methods::dopri5::tableau::{A, B, B_HAT, C, D, E};
 

@@ -19,12 +19,41 @@ pub mod tableau {
         [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0, 0.0],
         [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0, 0.0],
-        [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0, 0.0],
-        [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0, 0.0],
-        [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0],
+        [
+            19372.0 / 6561.0,
+            -25360.0 / 2187.0,
+            64448.0 / 6561.0,
+            -212.0 / 729.0,
+            0.0,
+            0.0,
+        ],
+        [
+            9017.0 / 3168.0,
+            -355.0 / 33.0,
+            46732.0 / 5247.0,
+            49.0 / 176.0,
+            -5103.0 / 18656.0,
+            0.0,
+        ],
+        [
+            35.0 / 384.0,
+            0.0,
+            500.0 / 1113.0,
+            125.0 / 192.0,
+            -2187.0 / 6784.0,
+            11.0 / 84.0,
+        ],
     ];
     /// 5th-order weights `b` (= last row of `A`: FSAL).
-    pub const B: [f64; 7] = [35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0, 0.0];
+    pub const B: [f64; 7] = [
+        35.0 / 384.0,
+        0.0,
+        500.0 / 1113.0,
+        125.0 / 192.0,
+        -2187.0 / 6784.0,
+        11.0 / 84.0,
+        0.0,
+    ];
     /// Embedded 4th-order weights `b̂`.
     pub const B_HAT: [f64; 7] = [
         5179.0 / 57600.0,
@@ -182,14 +211,23 @@ where
         }
         let (xs, xn) = (&x.as_slice()[..n], &x_new.as_slice()[..n]);
         let (rtol, atol) = (&w.rtol.as_slice()[..n], &w.atol.as_slice()[..n]);
-        let (k1, k3, k4, k5, k6, k7) = (k1.as_slice(), k3.as_slice(), k4.as_slice(), k5.as_slice(), k6.as_slice(), k7.as_slice());
+        let (k1, k3, k4, k5, k6, k7) = (
+            k1.as_slice(),
+            k3.as_slice(),
+            k4.as_slice(),
+            k5.as_slice(),
+            k6.as_slice(),
+            k7.as_slice(),
+        );
         let mut s = 0.0;
         for i in 0..n {
             let e = h * (E[0] * k1[i] + E[2] * k3[i] + E[3] * k4[i] + E[4] * k5[i] + E[5] * k6[i] + E[6] * k7[i]);
             let sk = atol[i] + rtol[i] * xs[i].abs().max(xn[i].abs());
             s += (e / sk) * (e / sk);
         }
-        Ok(Outcome::Done { err: (s / n as f64).sqrt() })
+        Ok(Outcome::Done {
+            err: (s / n as f64).sqrt(),
+        })
     }
     /// The first stage derivative (in evaluation order) that is not finite.
     fn diagnose<S: System<D>>(
@@ -205,13 +243,13 @@ where
                 return e;
             }
         }
-        crate::system::finite(x_new.as_slice(), t + h, crate::error::Quantity::State).err().unwrap_or(
-            crate::Error::NonFinite {
+        crate::system::finite(x_new.as_slice(), t + h, crate::error::Quantity::State)
+            .err()
+            .unwrap_or(crate::Error::NonFinite {
                 t: t + h,
                 quantity: crate::error::Quantity::State,
                 component: 0,
-            },
-        )
+            })
     }
     fn accept(&mut self) {
         self.k.swap(0, 6);

@@ -52,7 +52,12 @@ where
         match f.rhs(t1, x, fx) {
             Ok(()) => {}
             Err(e) if k == 0 => return Err(e),
-            Err(_) => return Ok(Solve::Failed { iterations: k, residual: last }),
+            Err(_) => {
+                return Ok(Solve::Failed {
+                    iterations: k,
+                    residual: last,
+                });
+            }
         }
         f.stats.newton_iterations += 1;
         for i in 0..n {
@@ -67,13 +72,19 @@ where
         let norm = (s / n.max(1) as f64).sqrt();
         last = norm;
         if !norm.is_finite() {
-            return Ok(Solve::Failed { iterations: k + 1, residual: norm });
+            return Ok(Solve::Failed {
+                iterations: k + 1,
+                residual: norm,
+            });
         }
         let rate = norm_old.map(|old| norm / old);
         if let Some(rate) = rate
             && (rate >= 1.0 || rate.powi((max_iters - k) as i32) / (1.0 - rate) * norm > tol)
         {
-            return Ok(Solve::Failed { iterations: k + 1, residual: norm });
+            return Ok(Solve::Failed {
+                iterations: k + 1,
+                residual: norm,
+            });
         }
         *x += &*dx;
         if norm == 0.0 || rate.is_some_and(|rate| rate / (1.0 - rate) * norm < tol) {
@@ -81,5 +92,8 @@ where
         }
         norm_old = Some(norm);
     }
-    Ok(Solve::Failed { iterations: max_iters, residual: last })
+    Ok(Solve::Failed {
+        iterations: max_iters,
+        residual: last,
+    })
 }

@@ -10,12 +10,6 @@ fn main() {
     let opts = Options::default().rtol(tol).atol(tol).dense(false);
     let a = arenstorf();
     let p = Problem::new(&a, arenstorf_y0(), (0.0, ARENSTORF_T));
-    if which == "s" {
-        let s = p.solve(Dopri5::default(), &opts).unwrap();
-        let h = handwritten::dopri5(handwritten::arenstorf, 0.0, ARENSTORF_T, ARENSTORF_Y0, tol);
-        println!("{:?} hand {} {} {}", s.stats, h.evals, h.accepted, h.rejected);
-        return;
-    }
     for _ in 0..200 {
         if which == "r" {
             black_box(p.solve(Dopri5::default(), black_box(&opts)).unwrap().stats.accepted);

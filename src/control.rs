@@ -84,19 +84,23 @@ where
     pub fn norm(&self, e: &OVector<f64, D>, x0: &OVector<f64, D>, x1: &OVector<f64, D>) -> f64 {
         let mut s = 0.0;
         for i in 0..e.len() {
-            let sk = self.atol[i] + self.rtol[i] * x0[i].abs().max(x1[i].abs());
+            let sk = (self.atol[i] + self.rtol[i] * x0[i].abs().max(x1[i].abs())).max(f64::MIN_POSITIVE);
             let r = e[i] / sk;
             s += r * r;
         }
         (s / e.len().max(1) as f64).sqrt()
     }
 
-    /// Scale of component `i` at state `x`: `atol_i + rtol_i·|x_i|`.
+    /// Scale of component `i` at state `x`: `atol_i + rtol_i·|x_i|` (at least the
+    /// smallest normal number, so that pure relative control of a zero component is not 0/0).
     #[inline]
     pub fn scale(&self, i: usize, x: f64) -> f64 {
-        self.atol[i] + self.rtol[i] * x.abs()
+        (self.atol[i] + self.rtol[i] * x.abs()).max(f64::MIN_POSITIVE)
     }
 }
+
+/// `ln 1e-4`: `dopri5.f` keeps `err_old ≥ 1e-4`.
+const LN_ERR_MIN: f64 = -9.210340371976182;
 
 /// Hairer's PI ("Lund-stabilised") controller from `dopri5.f`:
 /// `h_new = h·min(max_factor, max(min_factor, safety·err^(−α)·err_old^β))`,
@@ -116,15 +120,22 @@ pub struct Controller {
     /// Keep the step (factor 1) when the proposed factor falls in this range, so that
     /// implicit methods can reuse their factorisation (RADAU5 uses [1, 1.2]).
     pub hold: Option<(f64, f64)>,
-    err_old: f64,
+    /// `ln(err_old)`, the logarithm of the last accepted error (at least ln 1e-4).
+    ln_err_old: f64,
 }
 
 impl Controller {
     /// Hairer's defaults for an error estimator of order `q` with PI exponent `beta`.
     ///
     /// ```
-    /// let c = reckon::control::Controller::new(4, 0.04);
+    /// let mut c = reckon::control::Controller::new(4, 0.04);
     /// assert!((c.alpha - 0.17).abs() < 1e-15); // 1/5 − 0.75·0.04
+    /// // first accepted step: err_old = 1e-4, factor = 0.9·err^−0.17·(1e-4)^0.04
+    /// let f = c.accept(0.5);
+    /// assert!((f - 0.9 * 0.5f64.powf(-0.17) * 1e-4f64.powf(0.04)).abs() < 1e-14);
+    /// // second: err_old = 0.5
+    /// let f = c.accept(0.25);
+    /// assert!((f - 0.9 * 0.25f64.powf(-0.17) * 0.5f64.powf(0.04)).abs() < 1e-14);
     /// ```
     pub fn new(q: u32, beta: f64) -> Self {
         Controller {
@@ -134,7 +145,7 @@ impl Controller {
             beta,
             alpha: 1.0 / (q as f64 + 1.0) - 0.75 * beta,
             hold: None,
-            err_old: 1e-4,
+            ln_err_old: LN_ERR_MIN,
         }
     }
 
@@ -145,11 +156,16 @@ impl Controller {
     }
 
     /// Factor for the next step after an accepted step with error `err ≤ 1`.
+    ///
+    /// `err^α / err_old^β` is evaluated as `exp(α·ln err − β·ln err_old)` with the
+    /// logarithm of `err_old` kept from the last step: one `ln` and one `exp` per step
+    /// instead of two `powf` (each of which is an `ln` and an `exp` inside).
     #[inline]
     pub fn accept(&mut self, err: f64) -> f64 {
-        let fac = err.powf(self.alpha) / self.err_old.powf(self.beta) / self.safety;
+        let ln_err = err.ln();
+        let fac = (self.alpha * ln_err - self.beta * self.ln_err_old).exp() / self.safety;
         let fac = fac.clamp(1.0 / self.max_factor, 1.0 / self.min_factor);
-        self.err_old = err.max(1e-4);
+        self.ln_err_old = ln_err.max(LN_ERR_MIN);
         match self.hold {
             Some((lo, hi)) if (lo..=hi).contains(&(1.0 / fac)) => 1.0,
             _ => 1.0 / fac,

@@ -330,7 +330,8 @@ where
                 });
             }
             let (h, land) = self.next_h(stop);
-            if h == 0.0 || h.abs() <= 10.0 * f64::EPSILON * self.t.abs() || !h.is_finite() {
+            // zero, NaN, ±∞ or below what t can resolve (dopri5.f: 0.1|h| ≤ |t|·uround)
+            if !(h.abs() > 10.0 * f64::EPSILON * self.t.abs() && h.abs() < f64::INFINITY) {
                 return Err(Error::StepSizeUnderflow { t: self.t, h });
             }
             self.attempts += 1;

@@ -1,3 +1,10 @@
+#![doc = include_str!("../README.md")]
+#![warn(missing_docs)]
+
+/// The user guide (`docs/guide.md`); its examples run as doctests.
+#[doc = include_str!("../docs/guide.md")]
+pub mod guide {}
+
 pub mod control;
 pub mod controls;
 pub mod error;

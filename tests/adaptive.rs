@@ -139,3 +139,22 @@ fn adaptive_implicit_euler_error_scales_with_sqrt_tolerance() {
     assert!((slope - 0.5).abs() < 0.1, "error ∝ tol^{slope}: {errs:?}");
     assert!(errs[3] < 3e-3, "{errs:?}");
 }
+
+/// Pure relative control (atol = 0) of a component that stays exactly zero: its scale
+/// is 0, and the error norm must not turn 0/0 into NaN.
+#[test]
+fn zero_component_with_zero_atol() {
+    let f = reckon::model!(|_t, x: [S; 2]| vector![-x[0], x[1] * 0.0]);
+    let opts = Options::default().rtol(1e-8).atol(0.0);
+    for sol in [
+        Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0))
+            .solve(Dopri5::default(), &opts)
+            .unwrap(),
+        Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0))
+            .solve(ImplicitEuler::default(), &opts.clone().rtol(1e-4))
+            .unwrap(),
+    ] {
+        assert_eq!(sol.last().1[1], 0.0);
+        assert!((sol.last().1[0] - (-1f64).exp()).abs() < 1e-2, "{}", sol.last().1[0]);
+    }
+}

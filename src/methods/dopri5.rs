@@ -178,7 +178,7 @@ where
             return Err(crate::Error::invalid("method", "Dopri5::step called before init"));
         };
         if !self.fsal {
-            f.rhs_unchecked(t, x, k1);
+            refresh_k1(f, t, x, k1);
             self.fsal = true;
         }
         let n = x.len();
@@ -222,7 +222,8 @@ where
         let mut s = 0.0;
         for i in 0..n {
             let e = h * (E[0] * k1[i] + E[2] * k3[i] + E[3] * k4[i] + E[4] * k5[i] + E[5] * k6[i] + E[6] * k7[i]);
-            let sk = atol[i] + rtol[i] * xs[i].abs().max(xn[i].abs());
+            // (a component held at exactly 0 with atol = 0 has scale 0: keep 0/0 out)
+            let sk = (atol[i] + rtol[i] * xs[i].abs().max(xn[i].abs())).max(f64::MIN_POSITIVE);
             s += (e / sk) * (e / sk);
         }
         Ok(Outcome::Done {
@@ -293,4 +294,15 @@ where
         let den = (x_new - y6).norm();
         (den > 0.0).then(|| h.abs() * num / den)
     }
+}
+
+/// `k₁ ← f(t, x)` after a discontinuity. Kept out of line: inlined, the compiler
+/// hoists the (pure) math of `f` above the FSAL test and evaluates it on every step.
+#[cold]
+#[inline(never)]
+fn refresh_k1<D: Dim, S: System<D>>(f: &mut Eval<'_, D, S>, t: f64, x: &OVector<f64, D>, k1: &mut OVector<f64, D>)
+where
+    DefaultAllocator: Allocator<D>,
+{
+    f.rhs_unchecked(t, x, k1);
 }

@@ -119,5 +119,39 @@ fn rk45(c: &mut Criterion) {
     );
 }
 
-criterion_group!(benches, rk45);
+/// The model call alone: a `model!` closure through `System::rhs` vs the same body as a
+/// plain `fn` over arrays.
+fn rhs_call(c: &mut Criterion) {
+    let mut g = c.benchmark_group("rhs-call");
+    g.sample_size(30)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1));
+    let sys = arenstorf();
+    let x = arenstorf_y0();
+    let mut dx = nalgebra::Vector4::zeros();
+    g.bench_function("arenstorf/reckon", |b| {
+        b.iter(|| {
+            sys.rhs(0.0, black_box(&x), &[], &mut dx);
+            black_box(dx)
+        })
+    });
+    g.bench_function("arenstorf/hand-written", |b| {
+        b.iter(|| black_box(handwritten::arenstorf(0.0, black_box(&ARENSTORF_Y0))))
+    });
+    let sys = lorenz();
+    let x = lorenz_y0();
+    let mut dx = nalgebra::Vector3::zeros();
+    g.bench_function("lorenz/reckon", |b| {
+        b.iter(|| {
+            sys.rhs(0.0, black_box(&x), &[], &mut dx);
+            black_box(dx)
+        })
+    });
+    g.bench_function("lorenz/hand-written", |b| {
+        b.iter(|| black_box(handwritten::lorenz(0.0, black_box(&[1.0, 1.0, 1.0]))))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, rk45, rhs_call);
 criterion_main!(benches);

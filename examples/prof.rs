@@ -8,15 +8,13 @@ fn main() {
     let which = std::env::args().nth(1).unwrap();
     let tol = 1e-8;
     let opts = Options::default().rtol(tol).atol(tol).dense(false);
-    let a = arenstorf();
-    let p = Problem::new(&a, arenstorf_y0(), (0.0, ARENSTORF_T));
+    let v = van_der_pol(1.0);
+    let pv = Problem::new(&v, nalgebra::vector![2.0, 0.0], (0.0, 20.0));
     for _ in 0..200 {
-        if which == "r" {
-            black_box(p.solve(Dopri5::default(), black_box(&opts)).unwrap().stats.accepted);
+        if which == "vr" {
+            black_box(pv.solve(Dopri5::default(), black_box(&opts)).unwrap().stats.accepted);
         } else {
-            black_box(
-                handwritten::dopri5(handwritten::arenstorf, 0.0, ARENSTORF_T, black_box(ARENSTORF_Y0), tol).accepted,
-            );
+            black_box(handwritten::dopri5(handwritten::van_der_pol, 0.0, 20.0, black_box([2.0, 0.0]), tol).accepted);
         }
     }
 }

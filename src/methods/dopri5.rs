@@ -88,6 +88,17 @@ pub mod tableau {
 
 use tableau::{A, C, D as DW, E};
 
+/// Stage derivatives `k₁…k₇` and stage arguments, inline for fixed sizes.
+#[derive(Debug, Clone)]
+struct Work<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    k: [OVector<f64, D>; 7],
+    y: OVector<f64, D>,
+    y6: OVector<f64, D>,
+}
+
 /// Dormand–Prince 5(4): `x₁ = x₀ + h Σ bᵢ kᵢ`, error `h Σ eᵢ kᵢ`, FSAL (`k₇ = f(t₁, x₁)`
 /// is the next step's `k₁`), six new `f` evaluations per step.
 ///
@@ -103,9 +114,7 @@ pub struct Dopri5<D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
-    k: Vec<OVector<f64, D>>,
-    y: Option<OVector<f64, D>>,
-    y6: Option<OVector<f64, D>>,
+    work: Option<Work<D>>,
     fsal: bool,
 }
 
@@ -116,9 +125,7 @@ where
     /// A fresh stepper (work space is allocated by the integrator's setup).
     pub fn new() -> Self {
         Dopri5 {
-            k: Vec::new(),
-            y: None,
-            y6: None,
+            work: None,
             fsal: false,
         }
     }
@@ -150,15 +157,17 @@ where
         Controller::new(4, 0.04)
     }
     fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()> {
-        self.k = vec![x0.clone(); 7];
-        self.y = Some(x0.clone());
-        self.y6 = Some(x0.clone());
-        f.rhs(t0, x0, &mut self.k[0])?;
+        let w = self.work.insert(Work {
+            k: std::array::from_fn(|_| x0.clone()),
+            y: x0.clone(),
+            y6: x0.clone(),
+        });
+        f.rhs(t0, x0, &mut w.k[0])?;
         self.fsal = true;
         Ok(())
     }
     fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
-        self.fsal.then(|| &self.k[0])
+        self.work.as_ref().filter(|_| self.fsal).map(|w| &w.k[0])
     }
     #[inline]
     fn step<S: System<D>>(
@@ -171,12 +180,10 @@ where
         w: &Weights<D>,
         adaptive: bool,
     ) -> Result<Outcome> {
-        let (Some(y), Some(y6)) = (self.y.as_mut(), self.y6.as_mut()) else {
+        let Some(Work { k, y, y6 }) = self.work.as_mut() else {
             return Err(crate::Error::invalid("method", "Dopri5::step called before init"));
         };
-        let [k1, k2, k3, k4, k5, k6, k7] = &mut self.k[..] else {
-            return Err(crate::Error::invalid("method", "Dopri5::step called before init"));
-        };
+        let [k1, k2, k3, k4, k5, k6, k7] = k;
         if !self.fsal {
             refresh_k1(f, t, x, k1);
             self.fsal = true;
@@ -239,7 +246,10 @@ where
         h: f64,
         x_new: &OVector<f64, D>,
     ) -> crate::Error {
-        for (i, k) in self.k.iter().enumerate() {
+        let Some(w) = self.work.as_ref() else {
+            return crate::Error::invalid("method", "Dopri5::diagnose called before init");
+        };
+        for (i, k) in w.k.iter().enumerate() {
             if let Err(e) = crate::system::finite(k.as_slice(), t + C[i] * h, crate::error::Quantity::Derivative) {
                 return e;
             }
@@ -253,7 +263,10 @@ where
             })
     }
     fn accept(&mut self) {
-        self.k.swap(0, 6);
+        if let Some(w) = self.work.as_mut() {
+            let [k1, .., k7] = &mut w.k;
+            std::mem::swap(k1, k7);
+        }
     }
     fn reset(&mut self) {
         self.fsal = false;
@@ -272,7 +285,9 @@ where
         x_new: &OVector<f64, D>,
         c: &mut [OVector<f64, D>],
     ) -> Result<()> {
-        let k = &self.k;
+        let Some(Work { k, .. }) = self.work.as_ref() else {
+            return Err(crate::Error::invalid("method", "Dopri5::dense called before init"));
+        };
         for i in 0..x.len() {
             let r1 = x[i];
             let r2 = x_new[i] - x[i];
@@ -289,9 +304,9 @@ where
     }
     /// Hairer's test `h·λ ≈ |h|·‖k₇ − k₆‖ / ‖x₁ − y₆‖` (both stages at `t + h`).
     fn stiffness(&self, h: f64, x_new: &OVector<f64, D>) -> Option<f64> {
-        let y6 = self.y6.as_ref()?;
-        let num = (&self.k[6] - &self.k[5]).norm();
-        let den = (x_new - y6).norm();
+        let w = self.work.as_ref()?;
+        let num = (&w.k[6] - &w.k[5]).norm();
+        let den = (x_new - &w.y6).norm();
         (den > 0.0).then(|| h.abs() * num / den)
     }
 }

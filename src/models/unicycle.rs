@@ -39,7 +39,9 @@ pub fn sinc(z: f64) -> f64 {
 /// assert!((x - vector![1.0, 1.0, std::f64::consts::FRAC_PI_2]).norm() < 1e-15);
 /// ```
 pub fn flow(_t: f64, x: &Vector3<f64>, u: &[f64], h: f64) -> Vector3<f64> {
-    let (v, w) = (u[0], u[1]);
+    // missing inputs give NaN, which the driver reports as a non-finite state
+    let v = u.first().copied().unwrap_or(f64::NAN);
+    let w = u.get(1).copied().unwrap_or(f64::NAN);
     let dth = w * h;
     let d = v * h * sinc(0.5 * dth);
     let mid = x[2] + 0.5 * dth;

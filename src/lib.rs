@@ -15,6 +15,7 @@ pub mod methods;
 pub mod models;
 pub mod options;
 pub mod problems;
+pub mod reckoning;
 pub mod solution;
 pub mod studies;
 pub mod system;

@@ -1,0 +1,2 @@
+//! Dead reckoning: wheel-encoder and IMU odometry, error models, drift studies.
+pub mod encoders;

@@ -18,12 +18,18 @@ enum Command {
     /// Integrate built-in problems and a unicycle scenario with every method and print
     /// a table of error, steps and work.
     Demo,
+    /// Simulate a vehicle model driven by a controls CSV; write t,x,y,theta[,steer].
+    Simulate(cli::simulate::SimulateArgs),
+    /// Dead-reckon a differential-drive robot from encoder pulse increments.
+    Odometry(cli::odometry::OdometryArgs),
 }
 
 fn main() -> ExitCode {
     let args = Args::parse();
     let result = match args.command {
         Command::Demo => cli::demo::run(&mut std::io::stdout().lock()),
+        Command::Simulate(a) => cli::simulate::run(&a),
+        Command::Odometry(a) => cli::odometry::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -14,7 +14,15 @@ fn robot() -> DiffDrive {
 #[test]
 fn straight_line() {
     let r = robot();
-    let samples: Vec<_> = (0..=100).map(|k| (k as f64 * 0.1, if k == 0 { 0.0 } else { 50.0 }, if k == 0 { 0.0 } else { 50.0 })).collect();
+    let samples: Vec<_> = (0..=100)
+        .map(|k| {
+            (
+                k as f64 * 0.1,
+                if k == 0 { 0.0 } else { 50.0 },
+                if k == 0 { 0.0 } else { 50.0 },
+            )
+        })
+        .collect();
     for rule in RULES {
         let path = odometry(&r, &samples, rule).unwrap();
         let end = path.last().unwrap().1;
@@ -54,7 +62,10 @@ fn circle_of_known_radius() {
     let exact = odometry(&r, &samples, Update::Exact).unwrap();
     let end = exact.last().unwrap().1;
     assert!((end[2] - 2.0 * PI).abs() < 1e-12);
-    assert!(end[0].abs() < 1e-12 && end[1].abs() < 1e-12, "exact rule closes the circle: {end}");
+    assert!(
+        end[0].abs() < 1e-12 && end[1].abs() < 1e-12,
+        "exact rule closes the circle: {end}"
+    );
     // every exact pose lies on the circle centred at (0, R)
     for (_, p) in &exact {
         assert!(((p[0].powi(2) + (p[1] - radius).powi(2)).sqrt() - radius).abs() < 1e-12);
@@ -63,14 +74,20 @@ fn circle_of_known_radius() {
     // compare whole paths with the exact one
     let dev = |rule| {
         let path = odometry(&r, &samples, rule).unwrap();
-        path.iter().zip(&exact).map(|(a, b)| (a.1 - b.1).fixed_rows::<2>(0).norm()).fold(0.0, f64::max)
+        path.iter()
+            .zip(&exact)
+            .map(|(a, b)| (a.1 - b.1).fixed_rows::<2>(0).norm())
+            .fold(0.0, f64::max)
     };
     let (m, e) = (dev(Update::Midpoint), dev(Update::Euler));
     // chord vs arc: the midpoint polygon's vertices sit on radius ds/(2 sin(Δθ/2)) instead of ds/Δθ
     let dth = 2.0 * PI / steps as f64;
     let ds = radius * dth;
     let expect_m = 2.0 * (ds / (2.0 * (dth / 2.0).sin()) - radius) + 1e-12;
-    assert!(m <= 1.01 * expect_m && m > 0.5 * (ds / (2.0 * (dth / 2.0).sin()) - radius), "midpoint deviation {m}");
+    assert!(
+        m <= 1.01 * expect_m && m > 0.5 * (ds / (2.0 * (dth / 2.0).sin()) - radius),
+        "midpoint deviation {m}"
+    );
     assert!(e > 10.0 * m, "Euler deviation {e} vs midpoint {m}");
 }
 
@@ -83,8 +100,14 @@ fn update_rules_against_the_arc() {
         let arc = advance(&p, ds, dth, Update::Exact);
         let m = (advance(&p, ds, dth, Update::Midpoint) - arc).fixed_rows::<2>(0).norm();
         let e = (advance(&p, ds, dth, Update::Euler) - arc).fixed_rows::<2>(0).norm();
-        assert!((m / (ds * dth * dth / 24.0) - 1.0).abs() < 0.01, "midpoint error {m} at Δθ = {dth}");
-        assert!((e / (ds * dth / 2.0) - 1.0).abs() < 0.02, "Euler error {e} at Δθ = {dth}");
+        assert!(
+            (m / (ds * dth * dth / 24.0) - 1.0).abs() < 0.01,
+            "midpoint error {m} at Δθ = {dth}"
+        );
+        assert!(
+            (e / (ds * dth / 2.0) - 1.0).abs() < 0.02,
+            "Euler error {e} at Δθ = {dth}"
+        );
     }
 }
 

@@ -1,1 +1,4 @@
+pub mod csvio;
 pub mod demo;
+pub mod odometry;
+pub mod simulate;

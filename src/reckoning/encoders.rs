@@ -27,7 +27,10 @@ impl std::str::FromStr for Update {
             "midpoint" => Ok(Update::Midpoint),
             "exact" => Ok(Update::Exact),
             "euler" => Ok(Update::Euler),
-            other => Err(Error::invalid("update", format!("'{other}' is not one of midpoint, exact, euler"))),
+            other => Err(Error::invalid(
+                "update",
+                format!("'{other}' is not one of midpoint, exact, euler"),
+            )),
         }
     }
 }
@@ -127,7 +130,10 @@ pub fn odometry(robot: &DiffDrive, samples: &[(f64, f64, f64)], rule: Update) ->
             return Err(Error::invalid("samples", format!("sample {k} is not finite")));
         }
         if k > 0 && t <= samples[k - 1].0 {
-            return Err(Error::invalid("samples", format!("time does not increase at sample {k}: {t}")));
+            return Err(Error::invalid(
+                "samples",
+                format!("time does not increase at sample {k}: {t}"),
+            ));
         }
         let (ds, dth) = robot.increments(l, r);
         pose = advance(&pose, ds, dth, rule);

@@ -1,0 +1,391 @@
+//! The `reckon simulate` and `reckon odometry` contract: round trips and every bad input.
+
+use nalgebra::vector;
+use reckon::methods::{Dopri5, Exact};
+use reckon::models::{bicycle, carlike, unicycle};
+use reckon::reckoning::encoders::{DiffDrive, Update, odometry};
+use reckon::{Controls, Options, Problem};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn dir() -> PathBuf {
+    let d = std::env::temp_dir().join(format!("reckon-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn file(name: &str, text: &str) -> PathBuf {
+    let p = dir().join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn reckon(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_reckon")).args(args).output().unwrap()
+}
+
+fn rows(out: &[u8]) -> (String, Vec<Vec<f64>>) {
+    let text = String::from_utf8(out.to_vec()).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap_or("").to_string();
+    let rows = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().unwrap()
+}
+
+const UNICYCLE: &str = "t,v,omega\n0,1,0\n1,1,0.5\n2.5,2,-0.3\n4,0,0\n";
+
+#[test]
+fn simulate_exact_round_trips_bit_for_bit() {
+    let c = file("u.csv", UNICYCLE);
+    let o = reckon(&[
+        "simulate",
+        "--model",
+        "unicycle",
+        "--controls",
+        p(&c),
+        "--method",
+        "exact",
+        "--x0",
+        "1,-2,0.5",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (header, got) = rows(&o.stdout);
+    assert_eq!(header, "t,x,y,theta");
+    let controls = Controls::new(
+        vec![0.0, 1.0, 2.5, 4.0],
+        vec![vec![1.0, 0.0], vec![1.0, 0.5], vec![2.0, -0.3], vec![0.0, 0.0]],
+    )
+    .unwrap();
+    let sol = Problem::new(unicycle::model(), vector![1.0, -2.0, 0.5], (0.0, 4.0))
+        .controls(controls)
+        .solve(Exact::new(unicycle::flow), &Options::default())
+        .unwrap();
+    assert_eq!(got.len(), sol.t.len());
+    for (row, (t, x)) in got.iter().zip(sol.t.iter().zip(&sol.x)) {
+        assert_eq!(row[0].to_bits(), t.to_bits());
+        for i in 0..3 {
+            assert_eq!(
+                row[i + 1].to_bits(),
+                x[i].to_bits(),
+                "value printed so that it round-trips"
+            );
+        }
+    }
+}
+
+#[test]
+fn simulate_rows_at_start_steps_and_breakpoints() {
+    let c = file("u2.csv", UNICYCLE);
+    for (method, dt) in [
+        ("euler", Some("0.4")),
+        ("implicit-euler", Some("0.4")),
+        ("rk45", Some("0.3")),
+        ("euler", None),
+    ] {
+        let mut args = vec![
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            p(&c),
+            "--method",
+            method,
+        ];
+        if let Some(dt) = dt {
+            args.extend(["--dt", dt]);
+        }
+        let o = reckon(&args);
+        assert!(o.status.success(), "{method}: {}", String::from_utf8_lossy(&o.stderr));
+        let (_, got) = rows(&o.stdout);
+        let ts: Vec<f64> = got.iter().map(|r| r[0]).collect();
+        assert_eq!(ts[0], 0.0);
+        assert_eq!(*ts.last().unwrap(), 4.0);
+        for b in [1.0, 2.5] {
+            assert!(ts.contains(&b), "{method}: breakpoint {b} missing from {ts:?}");
+        }
+        match (method, dt) {
+            ("euler", None) => assert_eq!(ts, vec![0.0, 1.0, 2.5, 4.0], "default: one step per interval"),
+            ("euler", Some(_)) => assert!(ts.contains(&0.8) && ts.contains(&3.6)),
+            ("rk45", _) => assert!(
+                ts.windows(2).all(|w| w[1] - w[0] <= 0.3 + 1e-12),
+                "--dt is rk45's max step"
+            ),
+            _ => {}
+        }
+    }
+    // rk45 at its default tolerance agrees with the exact arc
+    let o = reckon(&[
+        "simulate",
+        "--model",
+        "unicycle",
+        "--controls",
+        p(&c),
+        "--method",
+        "rk45",
+        "--rtol",
+        "1e-10",
+        "--atol",
+        "1e-10",
+    ]);
+    let (_, rk) = rows(&o.stdout);
+    let o = reckon(&[
+        "simulate",
+        "--model",
+        "unicycle",
+        "--controls",
+        p(&c),
+        "--method",
+        "exact",
+    ]);
+    let (_, ex) = rows(&o.stdout);
+    let (a, b) = (rk.last().unwrap(), ex.last().unwrap());
+    for i in 1..4 {
+        assert!((a[i] - b[i]).abs() < 1e-8);
+    }
+}
+
+#[test]
+fn simulate_bicycle_and_carlike_with_parameters() {
+    let c = file("b.csv", "t,v,steer\n0,2,0.3\n1.5,2,0\n3,0,0\n");
+    let o = reckon(&[
+        "simulate",
+        "--model",
+        "bicycle",
+        "--controls",
+        p(&c),
+        "--method",
+        "exact",
+        "--param",
+        "wheelbase=0.8",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (_, got) = rows(&o.stdout);
+    let controls = Controls::new(
+        vec![0.0, 1.5, 3.0],
+        vec![vec![2.0, 0.3], vec![2.0, 0.0], vec![0.0, 0.0]],
+    )
+    .unwrap();
+    let sol = Problem::new(bicycle::model(0.8), vector![0.0, 0.0, 0.0], (0.0, 3.0))
+        .controls(controls)
+        .solve(Exact::new(bicycle::flow(0.8)), &Options::default())
+        .unwrap();
+    assert_eq!(got.last().unwrap()[1].to_bits(), sol.last().1[0].to_bits());
+    let c = file("c.csv", "t,v,steer_rate\n0,5,0.2\n2,5,-0.2\n4,0,0\n");
+    let o = reckon(&[
+        "simulate",
+        "--model",
+        "carlike",
+        "--controls",
+        p(&c),
+        "--method",
+        "rk45",
+        "--rtol",
+        "1e-10",
+        "--atol",
+        "1e-10",
+    ]);
+    let (header, got) = rows(&o.stdout);
+    assert_eq!(header, "t,x,y,theta,steer");
+    let controls = Controls::new(
+        vec![0.0, 2.0, 4.0],
+        vec![vec![5.0, 0.2], vec![5.0, -0.2], vec![0.0, 0.0]],
+    )
+    .unwrap();
+    let sol = Problem::new(carlike::model(2.5), vector![0.0, 0.0, 0.0, 0.0], (0.0, 4.0))
+        .controls(controls)
+        .solve(
+            Dopri5::default(),
+            &Options::default().rtol(1e-10).atol(1e-10).dense(false),
+        )
+        .unwrap();
+    let last = got.last().unwrap();
+    for i in 0..4 {
+        assert_eq!(last[i + 1].to_bits(), sol.last().1[i].to_bits());
+    }
+    assert!((last[4] - 0.0).abs() < 1e-12, "steer returns to 0: {}", last[4]);
+}
+
+#[test]
+fn odometry_round_trip() {
+    let e = file(
+        "e.csv",
+        "t,left,right\n0,0,0\n0.1,100,120\n0.2,100,80\n0.3,-50,50\n0.4,200,200\n",
+    );
+    let robot = DiffDrive::new(0.1, 0.4, 1024.0).unwrap();
+    let samples = [
+        (0.0, 0.0, 0.0),
+        (0.1, 100.0, 120.0),
+        (0.2, 100.0, 80.0),
+        (0.3, -50.0, 50.0),
+        (0.4, 200.0, 200.0),
+    ];
+    for (name, rule) in [
+        ("midpoint", Update::Midpoint),
+        ("exact", Update::Exact),
+        ("euler", Update::Euler),
+    ] {
+        let o = reckon(&[
+            "odometry",
+            "--encoders",
+            p(&e),
+            "--wheel-diameter",
+            "0.1",
+            "--wheel-separation",
+            "0.4",
+            "--pulses-per-rev",
+            "1024",
+            "--update",
+            name,
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let (header, got) = rows(&o.stdout);
+        assert_eq!(header, "t,x,y,theta");
+        let lib = odometry(&robot, &samples, rule).unwrap();
+        assert_eq!(got[0], vec![0.0, 0.0, 0.0, 0.0], "starts at the pose (0, 0, 0)");
+        for (row, (t, pose)) in got.iter().zip(&lib) {
+            assert_eq!(row[0], *t);
+            for i in 0..3 {
+                assert_eq!(row[i + 1].to_bits(), pose[i].to_bits());
+            }
+        }
+    }
+}
+
+/// One clear message on stderr, a non-zero exit, and rows before the error written.
+fn fails(o: &Output, needle: &str) -> Vec<Vec<f64>> {
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains(needle), "stderr {err:?} should mention {needle:?}");
+    assert_eq!(err.trim().lines().count(), 1, "one message: {err:?}");
+    if o.stdout.is_empty() {
+        Vec::new()
+    } else {
+        rows(&o.stdout).1
+    }
+}
+
+#[test]
+fn bad_simulate_inputs() {
+    let sim = |controls: &Path, extra: &[&str]| {
+        let mut a = vec![
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            p(controls),
+            "--method",
+            "exact",
+        ];
+        a.extend_from_slice(extra);
+        reckon(&a)
+    };
+    // malformed row, named by line; rows before it are simulated and written
+    let c = file("bad1.csv", "t,v,omega\n0,1,0\n1,1,0.5\n2,abc,1\n3,0,0\n");
+    let got = fails(&sim(&c, &[]), "line 4");
+    assert_eq!(got.iter().map(|r| r[0]).collect::<Vec<_>>(), vec![0.0, 1.0]);
+    // wrong field count
+    let c = file("bad2.csv", "t,v,omega\n0,1,0\n1,1\n");
+    fails(&sim(&c, &[]), "line 3");
+    // time not increasing
+    let c = file("bad3.csv", "t,v,omega\n0,1,0\n1,1,0.5\n1,1,0.5\n");
+    fails(&sim(&c, &[]), "time does not increase");
+    // non-finite value
+    let c = file("bad4.csv", "t,v,omega\n0,1,0\n1,inf,0.5\n2,0,0\n");
+    fails(&sim(&c, &[]), "not finite");
+    // missing column
+    let c = file("bad5.csv", "t,v\n0,1\n1,1\n");
+    fails(&sim(&c, &[]), "missing column 'omega'");
+    // one row only
+    let c = file("bad6.csv", "t,v,omega\n0,1,0\n");
+    fails(&sim(&c, &[]), "at least two rows");
+    // bad options
+    let c = file("ok.csv", UNICYCLE);
+    fails(&sim(&c, &["--x0", "1,2"]), "--x0 has 2 values");
+    fails(&sim(&c, &["--param", "wheelbase=1"]), "no parameter 'wheelbase'");
+    fails(&sim(&c, &["--dt", "0.1"]), "does not apply to the exact method");
+    fails(
+        &reckon(&[
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            p(&c),
+            "--method",
+            "euler",
+            "--dt",
+            "-1",
+        ]),
+        "--dt",
+    );
+    fails(
+        &reckon(&[
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            "/nonexistent.csv",
+            "--method",
+            "euler",
+        ]),
+        "cannot read",
+    );
+    // unknown model or method: clap's own message and exit code 2
+    let o = reckon(&["simulate", "--model", "sled", "--controls", p(&c), "--method", "euler"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("invalid value 'sled'"));
+    let o = reckon(&[
+        "simulate",
+        "--model",
+        "unicycle",
+        "--controls",
+        p(&c),
+        "--method",
+        "rk4",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn bad_odometry_inputs() {
+    let run = |e: &Path| {
+        reckon(&[
+            "odometry",
+            "--encoders",
+            p(e),
+            "--wheel-diameter",
+            "0.1",
+            "--wheel-separation",
+            "0.4",
+            "--pulses-per-rev",
+            "1024",
+        ])
+    };
+    let e = file("oe1.csv", "t,left,right\n0,0,0\n0.1,10,10\n0.2,x,10\n0.3,1,1\n");
+    let got = fails(&run(&e), "line 4");
+    assert_eq!(got.len(), 2, "the two good rows are written");
+    let e = file("oe2.csv", "t,left,right\n0,0,0\n0.1,10,10\n0.05,1,1\n");
+    assert_eq!(fails(&run(&e), "time does not increase").len(), 2);
+    let e = file("oe3.csv", "t,left\n0,0\n");
+    fails(&run(&e), "missing column 'right'");
+    let e = file("oe4.csv", "t,left,right\n0,0,NaN\n");
+    fails(&run(&e), "not finite");
+    let e = file("oe5.csv", "t,left,right\n0,0,0\n");
+    let o = reckon(&[
+        "odometry",
+        "--encoders",
+        p(&e),
+        "--wheel-diameter",
+        "0.1",
+        "--wheel-separation",
+        "-0.4",
+        "--pulses-per-rev",
+        "1024",
+    ]);
+    fails(&o, "wheel_separation");
+}

@@ -1,2 +1,4 @@
 //! Dead reckoning: wheel-encoder and IMU odometry, error models, drift studies.
+pub mod drift;
 pub mod encoders;
+pub mod errors;

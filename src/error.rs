@@ -93,6 +93,15 @@ pub enum Error {
         /// Why it was rejected.
         reason: String,
     },
+    /// Euler angles were asked of an attitude at pitch ±90°, where roll and yaw are not
+    /// separable (gimbal lock).
+    #[error("Euler angles are singular at t = {t}: pitch = {pitch} rad (±90°)")]
+    PitchSingularity {
+        /// Time of the attitude.
+        t: f64,
+        /// The pitch angle.
+        pitch: f64,
+    },
     /// The root finder could not locate an event inside a step.
     #[error("event {index} could not be located between t = {t0} and t = {t1}: {reason}")]
     EventLocation {

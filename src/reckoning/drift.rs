@@ -203,3 +203,53 @@ pub fn umbmark(
         ccw: return_error(robot, e, &square(side, false, speed, turn_rate), dt)?,
     })
 }
+
+/// Position error of a stationary, level IMU whose biases are not corrected.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImuDriftRow {
+    /// Time since start (s).
+    pub t: f64,
+    /// Simulated horizontal position error from the accelerometer bias alone (m).
+    pub accel_simulated: f64,
+    /// Closed form `½·b_a·t²`.
+    pub accel_closed_form: f64,
+    /// Simulated horizontal position error from the gyro bias alone (m).
+    pub gyro_simulated: f64,
+    /// Closed form `g·b_g·t³/6` (small-angle: the tilt `b_g t` leaks gravity).
+    pub gyro_closed_form: f64,
+}
+
+/// Simulate a stationary level IMU sampled every `dt` with an accelerometer bias `b_a`
+/// (m/s², x axis) and, separately, a gyro bias `b_g` (rad/s, x axis), dead-reckon it by
+/// strapdown, and report position errors at `times` next to the closed forms.
+pub fn imu_bias_drift(b_a: f64, b_g: f64, times: &[f64], dt: f64) -> Result<Vec<ImuDriftRow>> {
+    use super::imu::{GRAVITY, ImuSample, Nav, strapdown};
+    let end = times.iter().copied().fold(0.0, f64::max);
+    let n = (end / dt).round() as usize;
+    let run = |gyro: Vector3<f64>, accel: Vector3<f64>| {
+        let samples: Vec<ImuSample> = (0..=n)
+            .map(|k| ImuSample {
+                t: k as f64 * dt,
+                gyro,
+                accel,
+            })
+            .collect();
+        strapdown(&samples, Nav::level(), &Vector3::zeros(), &Vector3::zeros())
+    };
+    let level = Vector3::new(0.0, 0.0, GRAVITY);
+    let acc = run(Vector3::zeros(), level + Vector3::new(b_a, 0.0, 0.0))?;
+    let gyr = run(Vector3::new(b_g, 0.0, 0.0), level)?;
+    Ok(times
+        .iter()
+        .map(|&t| {
+            let k = ((t / dt).round() as usize).min(n);
+            ImuDriftRow {
+                t,
+                accel_simulated: acc[k].1.p.fixed_rows::<2>(0).norm(),
+                accel_closed_form: 0.5 * b_a * t * t,
+                gyro_simulated: gyr[k].1.p.fixed_rows::<2>(0).norm(),
+                gyro_closed_form: GRAVITY * b_g * t.powi(3) / 6.0,
+            }
+        })
+        .collect())
+}

@@ -2,3 +2,4 @@
 pub mod drift;
 pub mod encoders;
 pub mod errors;
+pub mod imu;

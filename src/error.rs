@@ -102,6 +102,13 @@ pub enum Error {
         /// The pitch angle.
         pitch: f64,
     },
+    /// A covariance that must be inverted (the Kalman innovation covariance `S`) is
+    /// not positive definite.
+    #[error("{what} is not positive definite (not invertible)")]
+    NotPositiveDefinite {
+        /// Which matrix.
+        what: &'static str,
+    },
     /// The root finder could not locate an event inside a step.
     #[error("event {index} could not be located between t = {t0} and t = {t1}: {reason}")]
     EventLocation {

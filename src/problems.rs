@@ -1,11 +1,10 @@
 //! Standard test problems with exact solutions or published reference values
 //! (Hairer–Nørsett–Wanner; the Bari Test Set; see `docs/guide.md`).
 
-use crate::System;
 use nalgebra::{Const, Dyn, Matrix2, Vector1, Vector2, Vector3, Vector4, vector};
 
 /// Rotation–decay `x' = A x`, `A = [[−a, −ω], [ω, −a]]` with `a = 0.5`, `ω = 2`.
-pub fn rotation_decay() -> impl System<Const<2>> + Clone {
+pub fn rotation_decay() -> impl crate::DualSystem<Const<2>> + Clone {
     crate::model!(|_t, x: [S; 2]| vector![x[0] * -0.5 - x[1] * 2.0, x[0] * 2.0 - x[1] * 0.5])
 }
 
@@ -16,7 +15,7 @@ pub fn rotation_decay_exact(t: f64, x0: &Vector2<f64>) -> Vector2<f64> {
 }
 
 /// `u' = sin u`.
-pub fn sin_u() -> impl System<Const<1>> + Clone {
+pub fn sin_u() -> impl crate::DualSystem<Const<1>> + Clone {
     crate::model!(|_t, x: [S; 1]| vector![x[0].sin()])
 }
 
@@ -26,7 +25,7 @@ pub fn sin_u_exact(t: f64, u0: f64) -> Vector1<f64> {
 }
 
 /// The stiff scalar problem `x' = −1000(x − cos t) − sin t`; `x = cos t` when `x(0) = 1`.
-pub fn stiff_cosine() -> impl System<Const<1>> + Clone {
+pub fn stiff_cosine() -> impl crate::DualSystem<Const<1>> + Clone {
     crate::model!(|t, x: [S; 1]| vector![(x[0] - t.cos()) * -1000.0 - t.sin()])
 }
 
@@ -40,7 +39,7 @@ pub const ARENSTORF_Y0: [f64; 4] = [0.994, 0.0, 0.0, -2.001585106379082522405378
 pub const ARENSTORF_T: f64 = 17.0652165601579625588917206249;
 
 /// The Arenstorf orbit of the restricted three-body problem (HNW ODE I §II.0).
-pub fn arenstorf() -> impl System<Const<4>> + Clone {
+pub fn arenstorf() -> impl crate::DualSystem<Const<4>> + Clone {
     crate::model!(|_t, y: [S; 4]| {
         let mu = ARENSTORF_MU;
         let mu1 = 1.0 - mu;
@@ -61,12 +60,12 @@ pub fn arenstorf_y0() -> Vector4<f64> {
 }
 
 /// Van der Pol in μ form: `y1' = y2`, `y2' = μ(1 − y1²)y2 − y1`.
-pub fn van_der_pol(mu: f64) -> impl System<Const<2>> + Clone {
+pub fn van_der_pol(mu: f64) -> impl crate::DualSystem<Const<2>> + Clone {
     crate::model!(|_t, y: [S; 2]| vector![y[1], (-y[0] * y[0] + 1.0) * y[1] * mu - y[0]])
 }
 
 /// Robertson's chemical kinetics, `k = (0.04, 3e7, 1e4)`, `y0 = (1, 0, 0)`.
-pub fn robertson() -> impl System<Const<3>> + Clone {
+pub fn robertson() -> impl crate::DualSystem<Const<3>> + Clone {
     crate::model!(|_t, y: [S; 3]| vector![
         y[0] * -0.04 + y[1] * y[2] * 1e4,
         y[0] * 0.04 - y[1] * y[1] * 3e7 - y[1] * y[2] * 1e4,
@@ -75,7 +74,7 @@ pub fn robertson() -> impl System<Const<3>> + Clone {
 }
 
 /// Lorenz with σ = 10, ρ = 28, β = 8/3.
-pub fn lorenz() -> impl System<Const<3>> + Clone {
+pub fn lorenz() -> impl crate::DualSystem<Const<3>> + Clone {
     crate::model!(|_t, y: [S; 3]| vector![
         (y[1] - y[0]) * 10.0,
         y[0] * (-y[2] + 28.0) - y[1],
@@ -91,7 +90,7 @@ pub fn lorenz_y0() -> Vector3<f64> {
 /// The 1-D Brusselator with `n` grid points (HNW ODE II §IV.1, α = 1/50):
 /// state `(u₁, v₁, …, u_n, v_n)`, `u_i' = 1 + u_i²v_i − 4u_i + α(n+1)²(u_{i−1} − 2u_i + u_{i+1})`,
 /// `v_i' = 3u_i − u_i²v_i + α(n+1)²(v_{i−1} − 2v_i + v_{i+1})`, boundary values `u = 1, v = 3`.
-pub fn brusselator(n: usize) -> impl System<Dyn> + Clone {
+pub fn brusselator(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
     let c = (n as f64 + 1.0).powi(2) / 50.0;
     crate::model!(|_t, y: [S; Dyn]| {
         let n = y.len() / 2;

@@ -111,6 +111,36 @@ where
     }
 }
 
+/// A model that can also be evaluated on num-dual numbers, so that maps built from it
+/// (a whole integration step, say) can be differentiated exactly.
+pub trait DualSystem<D: Dim>: System<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<U1, D>,
+{
+    /// `f(t, x, u)` at dual `x`.
+    fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D>;
+}
+
+impl<D: Dim, F, G> DualSystem<D> for ClosureModel<D, F, G>
+where
+    F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
+    G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D> {
+        (self.g)(t, x, u)
+    }
+}
+
+impl<D: Dim, T: DualSystem<D> + ?Sized> DualSystem<D> for &T
+where
+    DefaultAllocator: Allocator<D> + Allocator<U1, D>,
+{
+    fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D> {
+        (**self).rhs_dual(t, x, u)
+    }
+}
+
 /// Turn a closure body into a [`System`] with an exact autodiff Jacobian.
 ///
 /// `model!(|t, x: [S; N]| body)` for a fixed-size state `SVector<S, N>`,

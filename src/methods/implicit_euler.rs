@@ -33,8 +33,8 @@ impl Default for NewtonOptions {
 /// The iteration matrix `M = I − h·J` uses the exact Jacobian `J = ∂f/∂x` from
 /// automatic differentiation. `J` and the LU of `M` are kept across iterations and
 /// across steps while Newton converges (the LU is refactored when `h` changes); on
-/// failure `J` is refreshed, and if that fails too the step is handed back to the
-/// driver to shrink.
+/// failure `J` is refreshed at the last Newton iterate, and if that fails too the step is
+/// handed back to the driver to shrink.
 ///
 /// **Error estimate** (adaptive mode). The local error of backward Euler is
 /// `−h²/2·x'' + O(h³)`; `(h/2)(f(t₁,x₁) − f(t₀,x₀))` estimates it, and since Newton
@@ -177,6 +177,7 @@ where
             .newton
             .tol
             .unwrap_or_else(|| (10.0 * f64::EPSILON / rtol).max(0.03f64.min(rtol.sqrt())));
+        let mut refreshed_at_iterate = false;
         loop {
             if !self.factor(&mut f.stats, h) {
                 if self.j_current {
@@ -196,10 +197,19 @@ where
             match newton::solve(f, lu, t + h, x, h, x_new, w, tol, self.newton.max_iters, work)? {
                 Solve::Converged => break,
                 Solve::Failed { iterations, residual } => {
-                    if self.j_current {
+                    // refresh J where Newton got to (closer to x₁ than x₀ is), once per
+                    // step; then give the step back to the driver to shrink
+                    let iterate_ok = x_new.iter().all(|v| v.is_finite()) && *x_new != *x;
+                    if self.j_current && (refreshed_at_iterate || !iterate_ok) {
                         return Ok(Outcome::Retry(Failure::Newton { iterations, residual }));
                     }
-                    self.refresh_jacobian(f, t, x)?;
+                    if iterate_ok {
+                        let at = x_new.clone();
+                        self.refresh_jacobian(f, t + h, &at)?;
+                        refreshed_at_iterate = true;
+                    } else {
+                        self.refresh_jacobian(f, t, x)?;
+                    }
                 }
             }
         }

@@ -2,7 +2,6 @@
 //! steering angle), wheelbase `L`: `θ' = v·tan α / L`.
 
 use super::unicycle;
-use crate::System;
 use nalgebra::{Const, Vector3};
 
 /// `x' = v cos θ`, `y' = v sin θ`, `θ' = v·tan α / L` with `u = (v, α)` held.
@@ -14,7 +13,7 @@ use nalgebra::{Const, Vector3};
 /// bicycle::model(0.5).rhs(0.0, &vector![0.0, 0.0, 0.0], &[2.0, std::f64::consts::FRAC_PI_4], &mut dx);
 /// assert!((dx - vector![2.0, 0.0, 4.0]).norm() < 1e-14); // 2·tan(π/4)/0.5
 /// ```
-pub fn model(wheelbase: f64) -> impl System<Const<3>> + Clone {
+pub fn model(wheelbase: f64) -> impl crate::DualSystem<Const<3>> + Clone {
     let l = wheelbase;
     crate::model!(|_t, x: [S; 3], u: [2]| nalgebra::vector![
         x[2].cos() * u[0],

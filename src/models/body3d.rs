@@ -2,7 +2,6 @@
 //! `p ∈ R³`, orientation from Euler angles `(φ, θ, ψ)` (roll, pitch, yaw) with
 //! `R = Rz(ψ)·Ry(θ)·Rx(φ)`, and `p' = R·v_body`.
 
-use crate::System;
 use nalgebra::{Const, Matrix3, Vector3};
 
 /// `R = Rz(ψ)·Ry(θ)·Rx(φ)`: body frame (x forward, y left, z up) to world frame.
@@ -41,7 +40,7 @@ pub fn rotation(roll: f64, pitch: f64, yaw: f64) -> Matrix3<f64> {
 /// body3d::model().rhs(0.0, &vector![0.0, 0.0, 0.0], &[0.0, 0.0, std::f64::consts::PI, 1.0, 0.0, 0.5], &mut dp);
 /// assert!((dp - vector![-1.0, 0.0, 0.5]).norm() < 1e-15);
 /// ```
-pub fn model() -> impl System<Const<3>> + Clone {
+pub fn model() -> impl crate::DualSystem<Const<3>> + Clone {
     crate::model!(|_t, p: [S; 3], u: [6]| {
         let v = rotation(u[0], u[1], u[2]) * Vector3::new(u[3], u[4], u[5]);
         // p' does not depend on p: lift the constants into the state's scalar

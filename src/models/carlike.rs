@@ -2,7 +2,6 @@
 //! steering rate, wheelbase `L`: `θ' = v·tan γ / L`, `γ' = ω`.
 
 use super::unicycle;
-use crate::System;
 use nalgebra::{Const, Vector3, Vector4};
 
 /// `x' = v cos θ`, `y' = v sin θ`, `θ' = v·tan γ / L`, `γ' = ω` with `u = (v, ω)` held.
@@ -14,7 +13,7 @@ use nalgebra::{Const, Vector3, Vector4};
 /// carlike::model(2.5).rhs(0.0, &vector![0.0, 0.0, 0.0, 0.1], &[5.0, 0.2], &mut dx);
 /// assert!((dx - vector![5.0, 0.0, 5.0 * 0.1f64.tan() / 2.5, 0.2]).norm() < 1e-15);
 /// ```
-pub fn model(wheelbase: f64) -> impl System<Const<4>> + Clone {
+pub fn model(wheelbase: f64) -> impl crate::DualSystem<Const<4>> + Clone {
     let l = wheelbase;
     crate::model!(|_t, x: [S; 4], u: [2]| nalgebra::vector![
         x[2].cos() * u[0],

@@ -1,7 +1,6 @@
 //! Unicycle / differential drive: state `(x, y, θ)`, inputs `(v, ω)`
 //! (REP-103: x forward, y left, θ counter-clockwise from +x, θ unwrapped).
 
-use crate::System;
 use nalgebra::{Const, Vector3};
 
 /// `x' = v cos θ`, `y' = v sin θ`, `θ' = ω` with `u = (v, ω)` held.
@@ -13,7 +12,7 @@ use nalgebra::{Const, Vector3};
 /// unicycle::model().rhs(0.0, &vector![0.0, 0.0, 0.0], &[2.0, 0.5], &mut dx);
 /// assert_eq!(dx, vector![2.0, 0.0, 0.5]);
 /// ```
-pub fn model() -> impl System<Const<3>> + Clone {
+pub fn model() -> impl crate::DualSystem<Const<3>> + Clone {
     crate::model!(|_t, x: [S; 3], u: [2]| nalgebra::vector![x[2].cos() * u[0], x[2].sin() * u[0], S::from(u[1])])
 }
 

@@ -6,7 +6,7 @@
 
 use crate::error::{Error, Result};
 use crate::methods::Dopri5;
-use crate::{Controls, Options, Problem, Solution, System};
+use crate::{Controls, Options, Problem, Solution};
 use nalgebra::{Const, Matrix3, Vector3, Vector5};
 
 /// Standard gravity (m/s²).
@@ -14,7 +14,7 @@ pub const GRAVITY: f64 = 9.81;
 
 /// Planar IMU kinematics: state `(x, y, θ, v_x, v_y)` (world velocity), inputs
 /// `(ω, a_x, a_y)` in the body frame: `θ' = ω`, `v' = R(θ)·a_b`, `p' = v`.
-pub fn model_2d() -> impl System<Const<5>> + Clone {
+pub fn model_2d() -> impl crate::DualSystem<Const<5>> + Clone {
     crate::model!(|_t, s: [S; 5], u: [3]| {
         let (c, sn) = (s[2].cos(), s[2].sin());
         nalgebra::vector![s[3], s[4], S::from(u[0]), c * u[1] - sn * u[2], sn * u[1] + c * u[2]]

@@ -109,3 +109,39 @@ fn pitch_singularity_is_reported() {
     let (a, b, c) = euler_angles(&rotation(0.3, 1.5, 1.0), 0.0).unwrap();
     assert!((a - 0.3).abs() < 1e-9 && (b - 1.5).abs() < 1e-12 && (c - 1.0).abs() < 1e-9);
 }
+
+/// White accelerometer noise σ_a at sample period dt integrates to a velocity random walk
+/// σ_v(t) = σ_a·√(dt·t); over many seeds the spread of the final velocity matches it.
+#[test]
+fn imu_noise_is_seeded_and_integrates_to_a_random_walk() {
+    let (dt, n, sa) = (0.01, 1000, 0.05);
+    let truth: Vec<ImuSample> = (0..=n)
+        .map(|k| ImuSample {
+            t: k as f64 * dt,
+            gyro: Vector3::zeros(),
+            accel: vector![0.0, 0.0, GRAVITY],
+        })
+        .collect();
+    let e = ImuErrors {
+        accel_noise: sa,
+        seed: 3,
+        ..Default::default()
+    };
+    assert_eq!(corrupt(&truth, &e), corrupt(&truth, &e));
+    assert_ne!(corrupt(&truth, &e), corrupt(&truth, &ImuErrors { seed: 4, ..e }));
+    let runs = 400;
+    let mut sum2 = 0.0;
+    for seed in 0..runs {
+        let s = corrupt(&truth, &ImuErrors { seed, ..e });
+        let end = strapdown(&s, Nav::level(), &Vector3::zeros(), &Vector3::zeros())
+            .unwrap()
+            .last()
+            .unwrap()
+            .1;
+        sum2 += end.v[0] * end.v[0];
+    }
+    let sigma = (sum2 / runs as f64).sqrt();
+    // each sample's force is held over its interval: v = Σ f_k·dt over n intervals, σ·dt·√n
+    let expect = sa * dt * (n as f64).sqrt();
+    assert!((sigma / expect - 1.0).abs() < 0.15, "σ_v {sigma} vs {expect}");
+}

@@ -189,3 +189,55 @@ pub fn euler_angles(r: &Matrix3<f64>, t: f64) -> Result<(f64, f64, f64)> {
     }
     Ok((r[(2, 1)].atan2(r[(2, 2)]), pitch, r[(1, 0)].atan2(r[(0, 0)])))
 }
+
+/// IMU error model: constant biases and white noise, reproducible with a seed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImuErrors {
+    /// Gyro bias (rad/s).
+    pub gyro_bias: Vector3<f64>,
+    /// Accelerometer bias (m/s²).
+    pub accel_bias: Vector3<f64>,
+    /// Gyro white-noise σ per sample (rad/s).
+    pub gyro_noise: f64,
+    /// Accelerometer white-noise σ per sample (m/s²).
+    pub accel_noise: f64,
+    /// Seed of the random generator.
+    pub seed: u64,
+}
+
+impl Default for ImuErrors {
+    fn default() -> Self {
+        ImuErrors {
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            gyro_noise: 0.0,
+            accel_noise: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+/// Measured samples from true ones: `ω̃ = ω + b_g + n_g`, `f̃ = f + b_a + n_a`.
+///
+/// ```
+/// use reckon::reckoning::imu::{corrupt, ImuErrors, ImuSample};
+/// use nalgebra::{vector, Vector3};
+/// let truth = [ImuSample { t: 0.0, gyro: Vector3::zeros(), accel: vector![0.0, 0.0, 9.81] }];
+/// let e = ImuErrors { gyro_bias: vector![0.01, 0.0, 0.0], ..Default::default() };
+/// assert_eq!(corrupt(&truth, &e)[0].gyro, vector![0.01, 0.0, 0.0]);
+/// ```
+pub fn corrupt(samples: &[ImuSample], e: &ImuErrors) -> Vec<ImuSample> {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(e.seed);
+    let n = Normal::new(0.0, 1.0).expect("unit normal");
+    let mut noise = |s: f64| Vector3::new(n.sample(&mut rng), n.sample(&mut rng), n.sample(&mut rng)) * s;
+    samples
+        .iter()
+        .map(|s| ImuSample {
+            t: s.t,
+            gyro: s.gyro + e.gyro_bias + noise(e.gyro_noise),
+            accel: s.accel + e.accel_bias + noise(e.accel_noise),
+        })
+        .collect()
+}

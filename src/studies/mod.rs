@@ -1,5 +1,18 @@
-//! Studies of the methods themselves: observed order of convergence (and, later,
-//! stiffness and work–precision).
+//! Studies of the methods themselves: observed order of convergence, stability regions
+//! and stiffness, work–precision. Each returns plain tables; the `reckon` command turns
+//! them into CSV, SVG and HTML.
+
+pub mod convergence;
+pub mod stability;
+pub mod stiffness;
+pub mod work_precision;
+
+use crate::error::{Error, Result};
+use crate::linalg::LuDim;
+use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler};
+use crate::{Options, Problem, Solution, System};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// Least-squares slope of `log e` against `log h`: the observed order `p` in `e ≈ C·hᵖ`
 /// (PETSc `PetscConvEstGetConvRate`). Returns `None` for fewer than two points or any
@@ -22,4 +35,97 @@ pub fn fit_order(h: &[f64], e: &[f64]) -> Option<f64> {
     let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
     let sxx: f64 = xs.iter().map(|x| (x - mx).powi(2)).sum();
     (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// A method chosen by name at run time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MethodKind {
+    /// Explicit Euler.
+    Euler,
+    /// Implicit Euler.
+    ImplicitEuler,
+    /// Dormand–Prince 5(4).
+    Rk45,
+    /// The problem's exact flow.
+    Exact,
+}
+
+impl MethodKind {
+    /// All methods, in table order.
+    pub const ALL: [MethodKind; 4] = [
+        MethodKind::Euler,
+        MethodKind::ImplicitEuler,
+        MethodKind::Rk45,
+        MethodKind::Exact,
+    ];
+
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            MethodKind::Euler => "euler",
+            MethodKind::ImplicitEuler => "implicit-euler",
+            MethodKind::Rk45 => "rk45",
+            MethodKind::Exact => "exact",
+        }
+    }
+
+    /// The classical order (`None` for the exact flow).
+    pub fn order(self) -> Option<f64> {
+        match self {
+            MethodKind::Euler | MethodKind::ImplicitEuler => Some(1.0),
+            MethodKind::Rk45 => Some(5.0),
+            MethodKind::Exact => None,
+        }
+    }
+}
+
+impl std::str::FromStr for MethodKind {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        MethodKind::ALL
+            .into_iter()
+            .find(|m| m.name() == s.trim())
+            .ok_or_else(|| {
+                Error::invalid(
+                    "method",
+                    format!("'{s}' is not one of euler, implicit-euler, rk45, exact"),
+                )
+            })
+    }
+}
+
+/// A closed-form flow behind a reference, for run-time dispatch.
+pub struct DynFlow<'a, D: Dim>(pub &'a dyn Flow<D>)
+where
+    DefaultAllocator: Allocator<D>;
+
+impl<D: Dim> Flow<D> for DynFlow<'_, D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn flow(&self, t: f64, x: &OVector<f64, D>, u: &[f64], h: f64, out: &mut OVector<f64, D>) {
+        self.0.flow(t, x, u, h, out)
+    }
+}
+
+/// Solve `problem` with the method named by `kind`; `flow` is required for `Exact`.
+pub fn solve_with<D: LuDim, S: System<D>>(
+    problem: &Problem<'_, D, S>,
+    kind: MethodKind,
+    opts: &Options,
+    flow: Option<&dyn Flow<D>>,
+) -> Result<Solution<D>>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    match kind {
+        MethodKind::Euler => problem.solve(ExplicitEuler, opts),
+        MethodKind::ImplicitEuler => problem.solve(ImplicitEuler::default(), opts),
+        MethodKind::Rk45 => problem.solve(Dopri5::default(), opts),
+        MethodKind::Exact => match flow {
+            Some(f) => problem.solve(Exact::new(DynFlow(f)), opts),
+            None => Err(Error::invalid("method", "this problem has no exact flow")),
+        },
+    }
 }

@@ -284,6 +284,10 @@ where
     pub fn stats(&self) -> Stats {
         self.f.stats
     }
+    /// Where DOPRI5's stiffness test fired so far.
+    pub fn stiffness(&self) -> Option<Stiffness> {
+        self.stiffness
+    }
     /// Whether `t_end` (or a terminal event) has been reached.
     pub fn is_done(&self) -> bool {
         self.done

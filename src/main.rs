@@ -22,6 +22,12 @@ enum Command {
     Simulate(cli::simulate::SimulateArgs),
     /// Dead-reckon a differential-drive robot from encoder pulse increments.
     Odometry(cli::odometry::OdometryArgs),
+    /// Observed order of convergence over a sequence of fixed steps.
+    Convergence(cli::studies::ConvergenceArgs),
+    /// Step-size behaviour, stiffness ratio, stability regions and the Dahlquist threshold.
+    Stiffness(cli::studies::StiffnessArgs),
+    /// Error against rhs evaluations and wall time over a tolerance sweep.
+    WorkPrecision(cli::studies::WorkPrecisionArgs),
 }
 
 fn main() -> ExitCode {
@@ -30,6 +36,9 @@ fn main() -> ExitCode {
         Command::Demo => cli::demo::run(&mut std::io::stdout().lock()),
         Command::Simulate(a) => cli::simulate::run(&a),
         Command::Odometry(a) => cli::odometry::run(&a),
+        Command::Convergence(a) => cli::studies::convergence(&a),
+        Command::Stiffness(a) => cli::studies::stiffness(&a),
+        Command::WorkPrecision(a) => cli::studies::work_precision(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

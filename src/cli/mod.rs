@@ -1,4 +1,7 @@
 pub mod csvio;
 pub mod demo;
 pub mod odometry;
+pub mod plot;
+pub mod registry;
 pub mod simulate;
+pub mod studies;

@@ -1,0 +1,379 @@
+//! The problems the study commands know, behind one object-safe interface.
+
+use nalgebra::allocator::Allocator;
+use nalgebra::{Const, DVector, DefaultAllocator, Dim, OVector, SVector, vector};
+use reckon::linalg::LuDim;
+use reckon::methods::{Dopri5, Flow, ImplicitEuler, Method};
+use reckon::models::{bicycle, carlike, unicycle};
+use reckon::problems::*;
+use reckon::studies::convergence::{Convergence, convergence};
+use reckon::studies::stiffness::{StiffnessPoint, stiffness_along};
+use reckon::studies::work_precision::{WorkPoint, work_precision};
+use reckon::studies::MethodKind;
+use reckon::{Controls, Error, Options, Problem, Result, Solution, System};
+
+/// A step-size history, possibly cut short by an error (RK45 on a stiff problem).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct History {
+    pub method: &'static str,
+    pub t: Vec<f64>,
+    pub h: Vec<f64>,
+    pub accepted: u64,
+    pub rejected: u64,
+    pub rhs_evals: u64,
+    pub stiff_at: Option<f64>,
+    pub reached: f64,
+    pub stopped_by: Option<String>,
+}
+
+pub trait StudyProblem {
+    fn name(&self) -> &'static str;
+    fn describe(&self) -> &'static str;
+    /// Default fixed steps for `method`: first-order methods and exact flows use the
+    /// problem's list, RK45 a coarser one so that its errors stay above round-off.
+    fn default_steps(&self, method: MethodKind) -> Vec<f64>;
+    fn convergence(&self, methods: &[MethodKind], steps: &[f64]) -> Result<Convergence>;
+    fn histories(&self, rtol: f64, atol: f64, max_steps: usize) -> Vec<History>;
+    fn stiffness_points(&self, rtol: f64, atol: f64, samples: usize) -> Result<Vec<StiffnessPoint>>;
+    fn work_precision(&self, methods: &[MethodKind], tols: &[f64], steps: &[f64], runs: usize) -> Result<Vec<WorkPoint>>;
+}
+
+type ExactFn<D> = Box<dyn Fn(f64) -> OVector<f64, D>>;
+
+struct Spec<D: Dim, S>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    name: &'static str,
+    describe: &'static str,
+    problem: Problem<'static, D, S>,
+    exact: Option<ExactFn<D>>,
+    reference_end: Option<OVector<f64, D>>,
+    flow: Option<Box<dyn Flow<D>>>,
+    steps: Vec<f64>,
+    rk45_steps: Vec<f64>,
+    /// true when a path reference may be computed with RK45 at 1e-12 (non-stiff)
+    rk_reference: bool,
+}
+
+fn history<D: Dim, S: System<D>, M: Method<D>>(p: &Problem<'_, D, S>, m: M, opts: &Options) -> History
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let mut h = History {
+        method: m.name(),
+        t: Vec::new(),
+        h: Vec::new(),
+        accepted: 0,
+        rejected: 0,
+        rhs_evals: 0,
+        stiff_at: None,
+        reached: p.t0,
+        stopped_by: None,
+    };
+    let mut it = match p.integrator(m, opts) {
+        Ok(it) => it,
+        Err(e) => {
+            h.stopped_by = Some(e.to_string());
+            return h;
+        }
+    };
+    let mut t0 = it.t();
+    loop {
+        match it.step() {
+            Ok(Some(t)) => {
+                h.t.push(t0);
+                h.h.push(t - t0);
+                t0 = t;
+            }
+            Ok(None) => break,
+            Err(e) => {
+                h.stopped_by = Some(e.to_string());
+                break;
+            }
+        }
+    }
+    let s = it.stats();
+    (h.accepted, h.rejected, h.rhs_evals) = (s.accepted, s.rejected, s.rhs_evals);
+    h.stiff_at = it.stiffness().map(|s| s.t);
+    h.reached = it.t();
+    h
+}
+
+impl<D: LuDim, S: System<D>> Spec<D, S>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    fn flow(&self) -> Option<&dyn Flow<D>> {
+        self.flow.as_deref()
+    }
+    fn reference_solution(&self) -> Result<Solution<D>> {
+        self.problem.solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12).max_steps(2_000_000))
+    }
+    fn u0(&self) -> Vec<f64> {
+        self.problem.controls.as_ref().map(|c| c.values(0).to_vec()).unwrap_or_default()
+    }
+}
+
+impl<D: LuDim, S: System<D>> StudyProblem for Spec<D, S>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    fn name(&self) -> &'static str {
+        self.name
+    }
+    fn describe(&self) -> &'static str {
+        self.describe
+    }
+    fn default_steps(&self, method: MethodKind) -> Vec<f64> {
+        match method {
+            MethodKind::Rk45 => self.rk45_steps.clone(),
+            _ => self.steps.clone(),
+        }
+    }
+    fn convergence(&self, methods: &[MethodKind], steps: &[f64]) -> Result<Convergence> {
+        if let Some(exact) = &self.exact {
+            return convergence(&self.problem, methods, steps, exact.as_ref(), self.flow());
+        }
+        if !self.rk_reference {
+            return Err(Error::invalid(
+                "problem",
+                format!(
+                    "'{}' is stiff and has a reference only at its end time: study it with `reckon stiffness` or `reckon work-precision`",
+                    self.name
+                ),
+            ));
+        }
+        let r = self.reference_solution()?;
+        let exact = move |t: f64| r.at(t).unwrap_or_else(|_| r.last().1.clone());
+        convergence(&self.problem, methods, steps, &exact, self.flow())
+    }
+    fn histories(&self, rtol: f64, atol: f64, max_steps: usize) -> Vec<History> {
+        let opts = Options::default().rtol(rtol).atol(atol).dense(false).max_steps(max_steps);
+        vec![
+            history(&self.problem, Dopri5::default(), &opts),
+            history(&self.problem, ImplicitEuler::default(), &opts),
+        ]
+    }
+    fn stiffness_points(&self, rtol: f64, atol: f64, samples: usize) -> Result<Vec<StiffnessPoint>> {
+        let sol = self.problem.solve(ImplicitEuler::default(), &Options::default().rtol(rtol).atol(atol).dense(false))?;
+        let every = (sol.t.len() / samples.max(1)).max(1);
+        stiffness_along(&self.problem.system, &sol, &self.u0(), every)
+    }
+    fn work_precision(&self, methods: &[MethodKind], tols: &[f64], steps: &[f64], runs: usize) -> Result<Vec<WorkPoint>> {
+        let reference = match (&self.exact, &self.reference_end) {
+            (Some(e), _) => e(self.problem.t_end),
+            (None, Some(r)) => r.clone(),
+            (None, None) => self.reference_solution()?.last().1.clone(),
+        };
+        work_precision(&self.problem, methods, tols, steps, &reference, self.flow(), runs)
+    }
+}
+
+fn spec<D: LuDim, S: System<D> + 'static>(
+    name: &'static str,
+    describe: &'static str,
+    problem: Problem<'static, D, S>,
+    exact: Option<ExactFn<D>>,
+    (steps, rk45_steps): (Vec<f64>, Vec<f64>),
+) -> Spec<D, S>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    Spec {
+        name,
+        describe,
+        problem,
+        exact,
+        reference_end: None,
+        flow: None,
+        steps,
+        rk45_steps,
+        rk_reference: true,
+    }
+}
+
+fn halvings(h0: f64, n: usize) -> Vec<f64> {
+    (0..n).map(|k| h0 / 2f64.powi(k as i32)).collect()
+}
+
+pub const NAMES: [&str; 12] = [
+    "rotation-decay",
+    "dahlquist",
+    "sin-u",
+    "stiff-cosine",
+    "arenstorf",
+    "lorenz",
+    "unicycle",
+    "bicycle",
+    "carlike",
+    "van-der-pol",
+    "robertson",
+    "brusselator",
+];
+
+fn vehicle_controls() -> Controls {
+    Controls::new(
+        vec![0.0, 1.0, 2.0, 3.0, 4.0],
+        vec![vec![1.0, 0.8], vec![2.0, -0.5], vec![1.5, 0.0], vec![0.5, 0.3], vec![0.0, 0.0]],
+    )
+    .expect("valid controls")
+}
+
+/// Exact solution of a model with held inputs at any t: integrate its flow to t.
+fn flow_exact<const N: usize, S: System<Const<N>> + Clone + 'static, F: Flow<Const<N>> + Clone + 'static>(
+    sys: S,
+    flow: F,
+    x0: SVector<f64, N>,
+    c: Controls,
+) -> ExactFn<Const<N>> {
+    Box::new(move |t: f64| {
+        if t == 0.0 {
+            return x0;
+        }
+        let p = Problem::new(sys.clone(), x0, (0.0, t)).controls(c.clone());
+        p.solve(reckon::methods::Exact::new(flow.clone()), &Options::default().dense(false))
+            .map(|s| *s.last().1)
+            .unwrap_or(SVector::repeat(f64::NAN))
+    })
+}
+
+/// Look a problem up by name.
+pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> {
+    let unknown = || format!("unknown problem '{name}' (known: {})", NAMES.join(", "));
+    Ok(match name {
+        "rotation-decay" => {
+            let x0 = vector![1.0, 0.5];
+            Box::new(spec(
+                "rotation-decay",
+                "x' = [[-0.5, -2], [2, -0.5]] x, x0 = (1, 0.5), t in [0, 5]; exact: matrix exponential",
+                Problem::new(rotation_decay(), x0, (0.0, 5.0)),
+                Some(Box::new(move |t| rotation_decay_exact(t, &x0))),
+                (halvings(1.0 / 128.0, 5), halvings(0.2, 4)),
+            ))
+        }
+        "dahlquist" => {
+            let f = reckon::model!(|_t, x: [S; 1]| vector![x[0] * -2.0]);
+            Box::new(spec(
+                "dahlquist",
+                "x' = -2x, x0 = 1, t in [0, 5]; exact: e^(-2t)",
+                Problem::new(f, vector![1.0], (0.0, 5.0)),
+                Some(Box::new(|t: f64| vector![(-2.0 * t).exp()])),
+                (halvings(1.0 / 256.0, 5), halvings(0.1, 4)),
+            ))
+        }
+        "sin-u" => Box::new(spec(
+            "sin-u",
+            "u' = sin u, u0 = 0.5, t in [0, 5]; exact: 2 atan(e^t tan(u0/2))",
+            Problem::new(sin_u(), vector![0.5], (0.0, 5.0)),
+            Some(Box::new(|t| sin_u_exact(t, 0.5))),
+            (halvings(1.0 / 16.0, 5), halvings(0.5, 4)),
+        )),
+        "stiff-cosine" => Box::new(spec(
+            "stiff-cosine",
+            "x' = -1000(x - cos t) - sin t, x0 = 1, t in [0, 2]; exact: cos t",
+            Problem::new(stiff_cosine(), vector![1.0], (0.0, 2.0)),
+            Some(Box::new(|t: f64| vector![t.cos()])),
+            (halvings(1.0 / 2048.0, 5), halvings(0.0005, 4)),
+        )),
+        "arenstorf" => {
+            let mut s = spec(
+                "arenstorf",
+                "Arenstorf orbit, one period (returns to y0); path reference RK45 at 1e-12",
+                Problem::new(arenstorf(), arenstorf_y0(), (0.0, ARENSTORF_T)),
+                None,
+                (halvings(ARENSTORF_T / 200_000.0, 4), halvings(ARENSTORF_T / 4000.0, 4)),
+            );
+            s.reference_end = Some(arenstorf_y0());
+            Box::new(s)
+        }
+        "lorenz" => Box::new(spec(
+            "lorenz",
+            "Lorenz (σ 10, ρ 28, β 8/3), y0 = (1, 1, 1), t in [0, 2]; reference RK45 at 1e-12",
+            Problem::new(lorenz(), lorenz_y0(), (0.0, 2.0)),
+            None,
+            (halvings(0.0005, 5), halvings(0.01, 4)),
+        )),
+        "unicycle" => {
+            let c = vehicle_controls();
+            let x0 = vector![0.0, 0.0, 0.3];
+            let mut s = spec(
+                "unicycle",
+                "unicycle with (v, ω) held over four 1-s intervals; exact: the arc",
+                Problem::new(unicycle::model(), x0, (0.0, 4.0)).controls(c.clone()),
+                Some(flow_exact(unicycle::model(), unicycle::flow, x0, c)),
+                (halvings(0.1, 5), halvings(0.3, 4)),
+            );
+            s.flow = Some(Box::new(unicycle::flow));
+            Box::new(s)
+        }
+        "bicycle" => {
+            let c = Controls::new(
+                vec![0.0, 1.0, 2.0, 3.0, 4.0],
+                vec![vec![2.0, 0.3], vec![2.0, 0.0], vec![2.0, -0.4], vec![1.0, 0.2], vec![0.0, 0.0]],
+            )
+            .expect("valid controls");
+            let x0 = vector![0.0, 0.0, 0.0];
+            let mut s = spec(
+                "bicycle",
+                "kinematic bicycle, L = 0.5, v = 2, steering held over 1-s intervals; exact: the arc",
+                Problem::new(bicycle::model(0.5), x0, (0.0, 4.0)).controls(c.clone()),
+                Some(flow_exact(bicycle::model(0.5), bicycle::flow(0.5), x0, c)),
+                (halvings(0.1, 5), halvings(0.3, 4)),
+            );
+            s.flow = Some(Box::new(bicycle::flow(0.5)));
+            Box::new(s)
+        }
+        "carlike" => {
+            let c = Controls::new(vec![0.0, 1.0, 2.0], vec![vec![5.0, 0.3], vec![4.0, -0.5], vec![0.0, 0.0]])
+                .expect("valid controls");
+            let mut s = spec(
+                "carlike",
+                "car-like, L = 2.5, (v, steering rate) held; 'exact' is the 2nd-order midpoint-steering flow; reference RK45 at 1e-12",
+                Problem::new(carlike::model(2.5), vector![0.0, 0.0, 0.0, 0.05], (0.0, 2.0)).controls(c),
+                None,
+                (halvings(0.05, 5), halvings(0.25, 4)),
+            );
+            s.flow = Some(Box::new(carlike::flow(2.5)));
+            Box::new(s)
+        }
+        "van-der-pol" => {
+            let mut s = spec(
+                "van-der-pol",
+                "Van der Pol μ = 1000, y0 = (2, 0), t in [0, 2000]; reference y(2000) from the Test Set (VDPOLM)",
+                Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 2000.0)),
+                None,
+                (vec![], vec![]),
+            );
+            s.reference_end = Some(vector![1.706167732170469, -0.8928097010248125e-3]);
+            s.rk_reference = false;
+            Box::new(s)
+        }
+        "robertson" => {
+            let mut s = spec(
+                "robertson",
+                "Robertson (k = 0.04, 3e7, 1e4), y0 = (1, 0, 0), t in [0, 1e11]; reference from the Test Set (ROBER)",
+                Problem::new(robertson(), vector![1.0, 0.0, 0.0], (0.0, 1e11)),
+                None,
+                (vec![], vec![]),
+            );
+            s.reference_end = Some(vector![2.083340149701255e-8, 8.333360770334713e-14, 0.9999999791665050]);
+            s.rk_reference = false;
+            Box::new(s)
+        }
+        "brusselator" => {
+            let n = 20;
+            let mut s = spec(
+                "brusselator",
+                "1-D Brusselator, 20 grid points (40 unknowns, DVector with faer LU), t in [0, 10]; reference RK45 at 1e-12",
+                Problem::new(brusselator(n), brusselator_y0(n), (0.0, 10.0)),
+                None::<ExactFn<nalgebra::Dyn>>,
+                (halvings(0.004, 5), halvings(0.05, 4)),
+            );
+            s.rk_reference = true;
+            let _: Option<DVector<f64>> = None;
+            Box::new(s)
+        }
+        _ => return Err(unknown()),
+    })
+}

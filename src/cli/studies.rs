@@ -1,0 +1,371 @@
+//! `reckon convergence`, `reckon stiffness`, `reckon work-precision`: CSV, SVG, a
+//! printed summary, `--json` for machines, a progress bar for long runs.
+
+use super::plot::{Plot, Series, Style, write_svg};
+use super::registry::{History, lookup};
+use indicatif::{ProgressBar, ProgressStyle};
+use reckon::studies::MethodKind;
+use reckon::studies::stability::{StabilityOf, boundary, euler_threshold, real_axis_limit};
+use std::error::Error;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+type Res<T = ()> = Result<T, Box<dyn Error>>;
+
+/// Arguments shared by the study commands.
+#[derive(Debug, clap::Args)]
+pub struct Common {
+    /// Problem name (rotation-decay, dahlquist, sin-u, stiff-cosine, arenstorf, lorenz,
+    /// unicycle, bicycle, carlike, van-der-pol, robertson, brusselator).
+    #[arg(long)]
+    pub problem: String,
+    /// Output folder for CSV and SVG files.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// Print a machine-readable JSON summary instead of the table (fields in docs/studies.md).
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `reckon convergence`.
+#[derive(Debug, clap::Args)]
+pub struct ConvergenceArgs {
+    #[command(flatten)]
+    pub common: Common,
+    /// Methods, comma separated (euler, implicit-euler, rk45, exact).
+    #[arg(long, value_delimiter = ',', default_value = "euler,implicit-euler,rk45")]
+    pub methods: Vec<String>,
+    /// Fixed step sizes, comma separated (default: five halvings suited to the problem).
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub steps: Option<Vec<f64>>,
+}
+
+/// `reckon stiffness`.
+#[derive(Debug, clap::Args)]
+pub struct StiffnessArgs {
+    #[command(flatten)]
+    pub common: Common,
+    /// Relative tolerance of the adaptive runs.
+    #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
+    pub rtol: f64,
+    /// Absolute tolerance of the adaptive runs.
+    #[arg(long, default_value_t = 1e-7, allow_negative_numbers = true)]
+    pub atol: f64,
+    /// Step limit per run (RK45 on a stiff problem stops here, and says so).
+    #[arg(long, default_value_t = 200_000)]
+    pub max_steps: usize,
+}
+
+/// `reckon work-precision`.
+#[derive(Debug, clap::Args)]
+pub struct WorkPrecisionArgs {
+    #[command(flatten)]
+    pub common: Common,
+    /// Methods, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "implicit-euler,rk45")]
+    pub methods: Vec<String>,
+    /// Tolerances (rtol = atol) of the adaptive methods, comma separated.
+    #[arg(long, value_delimiter = ',', required = true, allow_negative_numbers = true)]
+    pub tolerances: Vec<f64>,
+    /// Fixed steps for explicit Euler, comma separated.
+    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    pub steps: Option<Vec<f64>>,
+    /// Timing repetitions (the fastest counts).
+    #[arg(long, default_value_t = 3)]
+    pub runs: usize,
+}
+
+fn methods(names: &[String]) -> Res<Vec<MethodKind>> {
+    if names.is_empty() || names.iter().all(|n| n.trim().is_empty()) {
+        return Err("no method given".into());
+    }
+    Ok(names.iter().map(|n| n.parse()).collect::<Result<Vec<_>, _>>()?)
+}
+
+fn positive(what: &str, v: &[f64]) -> Res {
+    if v.is_empty() {
+        return Err(format!("the {what} list is empty").into());
+    }
+    if let Some(bad) = v.iter().find(|x| !(x.is_finite() && **x > 0.0)) {
+        return Err(format!("{what} must be positive and finite, got {bad}").into());
+    }
+    Ok(())
+}
+
+/// Create the output folder and prove it is writable before any work is done.
+pub fn prepare(dir: &Path) -> Res {
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create output folder {}: {e}", dir.display()))?;
+    let probe = dir.join(".reckon-write-test");
+    std::fs::write(&probe, b"").map_err(|e| format!("cannot write to output folder {}: {e}", dir.display()))?;
+    let _ = std::fs::remove_file(probe);
+    Ok(())
+}
+
+fn progress(n: u64, what: &str) -> ProgressBar {
+    let pb = ProgressBar::new(n);
+    if let Ok(style) = ProgressStyle::with_template("{spinner} {msg} [{bar:30}] {pos}/{len} {elapsed}") {
+        pb.set_style(style.progress_chars("=> "));
+    }
+    pb.set_message(what.to_string());
+    pb
+}
+
+fn write_csv(path: &Path, header: &str, rows: impl IntoIterator<Item = String>) -> Res {
+    let mut f = std::io::BufWriter::new(
+        std::fs::File::create(path).map_err(|e| format!("cannot write {}: {e}", path.display()))?,
+    );
+    writeln!(f, "{header}")?;
+    for r in rows {
+        writeln!(f, "{r}")?;
+    }
+    f.flush()?;
+    Ok(())
+}
+
+fn fmt_order(o: Option<f64>) -> String {
+    o.map(|v| format!("{v:.3}")).unwrap_or_else(|| "-".into())
+}
+
+pub fn convergence(a: &ConvergenceArgs) -> Res {
+    let ms = methods(&a.methods)?;
+    let p = lookup(&a.common.problem)?;
+    if let Some(steps) = &a.steps {
+        positive("step", steps)?;
+    }
+    prepare(&a.common.out)?;
+    let pb = progress(ms.len() as u64, "convergence");
+    let mut study = reckon::studies::convergence::Convergence { rows: vec![], fits: vec![] };
+    // a method that fails (e.g. Newton on a problem it cannot handle at these steps)
+    // does not stop the others; the first failure is reported after the files are written
+    let mut failure: Option<String> = None;
+    for m in &ms {
+        let steps = a.steps.clone().unwrap_or_else(|| p.default_steps(*m));
+        match p.convergence(&[*m], &steps) {
+            Ok(s) => {
+                study.rows.extend(s.rows);
+                study.fits.extend(s.fits);
+            }
+            Err(e) => {
+                failure.get_or_insert(format!("{} failed on {}: {e}", m.name(), p.name()));
+            }
+        }
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let dir = &a.common.out;
+    write_csv(
+        &dir.join("convergence.csv"),
+        "method,h,steps,rhs_evals,final_error,max_error",
+        study.rows.iter().map(|r| {
+            format!("{},{},{},{},{},{}", r.method.name(), r.h, r.steps, r.rhs_evals, r.final_error, r.max_error)
+        }),
+    )?;
+    let mut plot = Plot::new(
+        format!("Convergence: {}", p.name()),
+        "step size h (s)",
+        "max-norm error at t_end",
+    )
+    .log_log();
+    for f in &study.fits {
+        let pts: Vec<(f64, f64)> = study.rows.iter().filter(|r| r.method == f.method).map(|r| (r.h, r.final_error)).collect();
+        plot = plot.with(Series::new(
+            format!("{} (slope {})", f.method.name(), fmt_order(f.order_final)),
+            pts,
+            Style::LinePoints,
+        ));
+    }
+    write_svg(&plot, &dir.join("convergence.svg"), (800, 560))?;
+    if a.common.json {
+        let v = serde_json::json!({
+            "problem": p.name(), "description": p.describe(), "rows": study.rows, "fits": study.fits,
+            "files": ["convergence.csv", "convergence.svg"],
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("{}: {}", p.name(), p.describe());
+        println!("{:<16} {:>14} {:>14} {:>8}", "method", "order (final)", "order (max)", "theory");
+        for f in &study.fits {
+            println!(
+                "{:<16} {:>14} {:>14} {:>8}",
+                f.method.name(),
+                fmt_order(f.order_final),
+                fmt_order(f.order_max),
+                fmt_order(f.theory)
+            );
+        }
+        println!("wrote {}/convergence.csv and convergence.svg", dir.display());
+    }
+    match failure {
+        Some(f) => Err(f.into()),
+        None => Ok(()),
+    }
+}
+
+/// Stability-region boundaries of the three methods and the Dahlquist threshold table.
+pub fn stability_files(dir: &Path) -> Res<Vec<(f64, f64, f64)>> {
+    let methods = [
+        (StabilityOf::ExplicitEuler, "explicit Euler |1 + z| = 1"),
+        (StabilityOf::ImplicitEuler, "implicit Euler |1/(1 - z)| = 1 (stable outside)"),
+        (StabilityOf::Dopri5, "DP5 |R(z)| = 1 (stable inside)"),
+    ];
+    let mut plot = Plot::new("Linear stability regions |R(hλ)| ≤ 1", "Re(hλ)", "Im(hλ)").equal();
+    let mut csv = Vec::new();
+    for (m, label) in methods {
+        let segs = boundary(m, (-4.5, 3.0), (-3.8, 3.8), 241);
+        for s in &segs {
+            csv.push(format!("{m:?},{},{},{},{}", s[0].0, s[0].1, s[1].0, s[1].1));
+        }
+        plot = plot.with(Series::new(label, segs.iter().flat_map(|s| [s[0], s[1]]).collect(), Style::Segments));
+    }
+    write_svg(&plot, &dir.join("stability_regions.svg"), (760, 640))?;
+    write_csv(&dir.join("stability_boundary.csv"), "method,x0,y0,x1,y1", csv)?;
+    let mut rows = Vec::new();
+    for lambda in [-1.0, -10.0, -100.0, -1000.0] {
+        rows.push((lambda, euler_threshold(lambda, 400)?, 2.0 / f64::abs(lambda)));
+    }
+    write_csv(
+        &dir.join("dahlquist_threshold.csv"),
+        "lambda,located_h,theory_2_over_abs_lambda,relative_difference",
+        rows.iter().map(|(l, h, t)| format!("{l},{h},{t},{}", h / t - 1.0)),
+    )?;
+    Ok(rows)
+}
+
+pub fn history_plot(title: &str, hist: &[History]) -> Plot {
+    let mut plot = Plot::new(title, "t (s)", "accepted step size h (s)").log_y();
+    for h in hist {
+        let label = match &h.stopped_by {
+            Some(_) => format!("{} ({} steps, stopped at t = {:.3})", h.method, h.accepted, h.reached),
+            None => format!("{} ({} steps)", h.method, h.accepted),
+        };
+        plot = plot.with(Series::new(label, h.t.iter().copied().zip(h.h.iter().copied()).collect(), Style::Line));
+    }
+    plot
+}
+
+pub fn stiffness(a: &StiffnessArgs) -> Res {
+    let p = lookup(&a.common.problem)?;
+    positive("rtol", &[a.rtol])?;
+    positive("atol", &[a.atol])?;
+    if a.max_steps == 0 {
+        return Err("--max-steps must be at least 1".into());
+    }
+    prepare(&a.common.out)?;
+    let dir = &a.common.out;
+    let pb = progress(3, "stiffness");
+    let hist = p.histories(a.rtol, a.atol, a.max_steps);
+    pb.inc(1);
+    let pts = p.stiffness_points(a.rtol, a.atol, 400)?;
+    pb.inc(1);
+    let dahl = stability_files(dir)?;
+    pb.inc(1);
+    pb.finish_and_clear();
+    write_csv(
+        &dir.join("step_sizes.csv"),
+        "method,t,h",
+        hist.iter().flat_map(|h| h.t.iter().zip(&h.h).map(move |(t, s)| format!("{},{t},{s}", h.method))),
+    )?;
+    write_svg(&history_plot(&format!("Step sizes: {}", p.name()), &hist), &dir.join("step_sizes.svg"), (860, 560))?;
+    write_csv(
+        &dir.join("stiffness_ratio.csv"),
+        "t,spectral_radius,stiffness_ratio",
+        pts.iter().map(|q| format!("{},{},{}", q.t, q.spectral_radius, q.ratio)),
+    )?;
+    let plot = Plot::new(
+        format!("Stiffness along the solution: {}", p.name()),
+        "t (s)",
+        "eigenvalues of the autodiff Jacobian",
+    )
+    .log_y()
+    .with(Series::new("stiffness ratio max|Re λ|/min|Re λ|", pts.iter().map(|q| (q.t, q.ratio)).collect(), Style::Line))
+    .with(Series::new("spectral radius ρ(J) (1/s)", pts.iter().map(|q| (q.t, q.spectral_radius)).collect(), Style::Line));
+    write_svg(&plot, &dir.join("stiffness_ratio.svg"), (860, 560))?;
+    let max_ratio = pts.iter().map(|q| q.ratio).filter(|r| r.is_finite()).fold(1.0, f64::max);
+    if a.common.json {
+        let v = serde_json::json!({
+            "problem": p.name(), "description": p.describe(), "histories": hist,
+            "max_stiffness_ratio": max_ratio,
+            "dp5_real_axis_limit": real_axis_limit(StabilityOf::Dopri5),
+            "euler_threshold": dahl.iter().map(|(l, h, t)| serde_json::json!({"lambda": l, "located": h, "theory": t})).collect::<Vec<_>>(),
+            "files": ["step_sizes.csv", "step_sizes.svg", "stiffness_ratio.csv", "stiffness_ratio.svg", "stability_regions.svg", "stability_boundary.csv", "dahlquist_threshold.csv"],
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("{}: {}", p.name(), p.describe());
+        for h in &hist {
+            print!("{:<15} accepted {:>8} rejected {:>6} rhs evals {:>9}", h.method, h.accepted, h.rejected, h.rhs_evals);
+            if let Some(t) = h.stiff_at {
+                print!("  stiffness detected at t = {t:.4}");
+            }
+            if let Some(e) = &h.stopped_by {
+                print!("  stopped: {e}");
+            }
+            println!();
+        }
+        println!("largest stiffness ratio along the solution: {max_ratio:.3e}");
+        for (l, h, t) in &dahl {
+            println!("explicit Euler on λ = {l}: unstable above h = {h:.6} (theory 2/|λ| = {t:.6})");
+        }
+        println!("wrote step_sizes, stiffness_ratio, stability_regions (CSV and SVG) in {}", dir.display());
+    }
+    Ok(())
+}
+
+pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
+    let ms = methods(&a.methods)?;
+    positive("tolerance", &a.tolerances)?;
+    let steps = a.steps.clone().unwrap_or_else(|| vec![1e-2, 1e-3, 1e-4]);
+    positive("step", &steps)?;
+    let p = lookup(&a.common.problem)?;
+    prepare(&a.common.out)?;
+    let pb = progress(ms.len() as u64, "work-precision");
+    let mut pts = Vec::new();
+    for m in &ms {
+        pts.extend(p.work_precision(&[*m], &a.tolerances, &steps, a.runs)?);
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    let dir = &a.common.out;
+    write_csv(
+        &dir.join("work_precision.csv"),
+        "method,setting,error,rhs_evals,steps,seconds",
+        pts.iter().map(|w| format!("{},{},{},{},{},{}", w.method.name(), w.setting, w.error, w.rhs_evals, w.steps, w.seconds)),
+    )?;
+    for (file, xl, pick) in [
+        ("error_vs_rhs_evals.svg", "rhs evaluations", 0),
+        ("error_vs_time.svg", "wall time (s)", 1),
+    ] {
+        let mut plot = Plot::new(format!("Work–precision: {}", p.name()), xl, "max-norm error at t_end").log_log();
+        for m in &ms {
+            let s: Vec<(f64, f64)> = pts
+                .iter()
+                .filter(|w| w.method == *m)
+                .map(|w| (if pick == 0 { w.rhs_evals as f64 } else { w.seconds }, w.error))
+                .collect();
+            plot = plot.with(Series::new(m.name(), s, Style::LinePoints));
+        }
+        write_svg(&plot, &dir.join(file), (800, 560))?;
+    }
+    if a.common.json {
+        let v = serde_json::json!({
+            "problem": p.name(), "description": p.describe(), "points": pts,
+            "files": ["work_precision.csv", "error_vs_rhs_evals.svg", "error_vs_time.svg"],
+        });
+        println!("{}", serde_json::to_string_pretty(&v)?);
+    } else {
+        println!("{}: {}", p.name(), p.describe());
+        println!("{:<16} {:>10} {:>12} {:>11} {:>10}", "method", "setting", "error", "rhs evals", "ms");
+        for w in &pts {
+            println!(
+                "{:<16} {:>10.1e} {:>12.3e} {:>11} {:>10.3}",
+                w.method.name(),
+                w.setting,
+                w.error,
+                w.rhs_evals,
+                w.seconds * 1e3
+            );
+        }
+        println!("wrote work_precision.csv, error_vs_rhs_evals.svg, error_vs_time.svg in {}", dir.display());
+    }
+    Ok(())
+}

@@ -13,11 +13,22 @@ struct Args {
     command: Command,
 }
 
+/// Arguments of `reckon demo`.
+#[derive(clap::Args)]
+struct DemoArgs {
+    /// Folder for the HTML report and its SVG figures.
+    #[arg(long, default_value = "report")]
+    out: std::path::PathBuf,
+    /// Shorter studies (for tests and quick looks).
+    #[arg(long)]
+    fast: bool,
+}
+
 #[derive(Subcommand)]
 enum Command {
-    /// Integrate built-in problems and a unicycle scenario with every method and print
-    /// a table of error, steps and work.
-    Demo,
+    /// Every method on built-in problems (printed tables), then the report: vehicle
+    /// scenarios, SLAM, UMBmark, IMU drift, convergence and stiffness studies, pitfalls.
+    Demo(DemoArgs),
     /// Simulate a vehicle model driven by a controls CSV; write t,x,y,theta[,steer].
     Simulate(cli::simulate::SimulateArgs),
     /// Dead-reckon a differential-drive robot from encoder pulse increments.
@@ -33,7 +44,11 @@ enum Command {
 fn main() -> ExitCode {
     let args = Args::parse();
     let result = match args.command {
-        Command::Demo => cli::demo::run(&mut std::io::stdout().lock()),
+        Command::Demo(a) => cli::demo::run(&mut std::io::stdout().lock()).and_then(|()| {
+            let n = cli::report::run(&a.out, a.fast)?;
+            println!("\nwrote {} ({n} figures)", a.out.join("index.html").display());
+            Ok(())
+        }),
         Command::Simulate(a) => cli::simulate::run(&a),
         Command::Odometry(a) => cli::odometry::run(&a),
         Command::Convergence(a) => cli::studies::convergence(&a),

@@ -258,11 +258,16 @@ fn odometry_round_trip() {
 }
 
 /// One clear message on stderr, a non-zero exit, and rows before the error written.
-fn fails(o: &Output, needle: &str) -> Vec<Vec<f64>> {
+fn fails_with(o: &Output, needle: &str) {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains(needle), "stderr {err:?} should mention {needle:?}");
     assert_eq!(err.trim().lines().count(), 1, "one message: {err:?}");
+}
+
+/// As `fails_with`, returning the CSV rows written before the error.
+fn fails(o: &Output, needle: &str) -> Vec<Vec<f64>> {
+    fails_with(o, needle);
     if o.stdout.is_empty() {
         Vec::new()
     } else {
@@ -388,4 +393,119 @@ fn bad_odometry_inputs() {
         "1024",
     ]);
     fails(&o, "wheel_separation");
+}
+
+/// `reckon demo --fast` builds the report; every image it references exists and parses as SVG.
+#[test]
+fn demo_builds_the_report() {
+    let out = dir().join("report");
+    let o = reckon(&["demo", "--fast", "--out", p(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    let imgs: Vec<&str> = html
+        .split("<img src=\"")
+        .skip(1)
+        .map(|s| &s[..s.find('"').unwrap()])
+        .collect();
+    assert!(imgs.len() >= 15, "{} images", imgs.len());
+    for img in &imgs {
+        let text = std::fs::read_to_string(out.join(img)).unwrap_or_else(|e| panic!("{img}: {e}"));
+        let doc = roxmltree::Document::parse(&text).unwrap_or_else(|e| panic!("{img} is not XML: {e}"));
+        assert_eq!(doc.root_element().tag_name().name(), "svg", "{img}");
+        assert!(
+            doc.descendants()
+                .filter(|n| n.has_tag_name("polyline") || n.has_tag_name("circle") || n.has_tag_name("path"))
+                .count()
+                > 0,
+            "{img} draws nothing"
+        );
+    }
+    for section in [
+        "Kinematic bicycle",
+        "Unicycle",
+        "Car-like",
+        "SLAM",
+        "UMBmark",
+        "IMU drift",
+        "Convergence study",
+        "Stiffness",
+        "textbook",
+    ] {
+        assert!(html.contains(section), "report lacks {section}");
+    }
+}
+
+fn study(args: &[&str]) -> Output {
+    let mut a = args.to_vec();
+    let out = dir().join(format!("study-{}", args.join("-").replace(['/', ','], "_")));
+    a.extend(["--out", out.to_str().unwrap()]);
+    reckon(&a)
+}
+
+#[test]
+fn study_commands_write_files_and_json() {
+    let o = study(&["convergence", "--problem", "sin-u", "--methods", "euler,rk45", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for fit in v["fits"].as_array().unwrap() {
+        let (p, th) = (fit["order_final"].as_f64().unwrap(), fit["theory"].as_f64().unwrap());
+        assert!((p - th).abs() <= 0.1, "{fit}");
+    }
+    let o = study(&["stiffness", "--problem", "stiff-cosine", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    for row in v["euler_threshold"].as_array().unwrap() {
+        let (h, t) = (row["located"].as_f64().unwrap(), row["theory"].as_f64().unwrap());
+        assert!((h / t - 1.0).abs() < 0.01);
+    }
+    let o = study(&[
+        "work-precision",
+        "--problem",
+        "rotation-decay",
+        "--methods",
+        "rk45",
+        "--tolerances",
+        "1e-4,1e-8",
+        "--runs",
+        "1",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let pts = v["points"].as_array().unwrap();
+    assert_eq!(pts.len(), 2);
+    assert!(pts[1]["error"].as_f64().unwrap() < pts[0]["error"].as_f64().unwrap());
+}
+
+#[test]
+fn bad_study_inputs() {
+    fails(
+        &study(&["convergence", "--problem", "pendulum"]),
+        "unknown problem 'pendulum'",
+    );
+    fails(
+        &study(&["convergence", "--problem", "sin-u", "--methods", "rk4"]),
+        "'rk4' is not one of",
+    );
+    fails(
+        &study(&["convergence", "--problem", "sin-u", "--steps", "0.1,-0.05"]),
+        "step must be positive",
+    );
+    fails(
+        &study(&["convergence", "--problem", "sin-u", "--steps", "0.1,0"]),
+        "step must be positive",
+    );
+    // an empty tolerance list: clap's parse error (exit 2) names the option
+    let o = study(&["work-precision", "--problem", "sin-u", "--tolerances", ""]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--tolerances"));
+    let o = study(&["work-precision", "--problem", "sin-u"]);
+    assert_eq!(o.status.code(), Some(2), "the tolerance list is required");
+    fails_with(&study(&["convergence", "--problem", "robertson"]), "stiff");
+    // an output folder that cannot be written: a path below a regular file
+    let f = file("not-a-dir", "x");
+    let o = reckon(&["convergence", "--problem", "sin-u", "--out", &format!("{}/sub", p(&f))]);
+    fails_with(&o, "cannot create output folder");
+    let o = reckon(&["demo", "--fast", "--out", &format!("{}/sub", p(&f))]);
+    assert!(!o.status.success());
 }

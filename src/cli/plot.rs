@@ -102,15 +102,25 @@ fn range(vals: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
         let (l, h) = (lo.log10().floor(), hi.log10().ceil().max(lo.log10().floor() + 1.0));
         (10f64.powf(l), 10f64.powf(h))
     } else {
-        let pad = if hi > lo { 0.05 * (hi - lo) } else { 0.5 * lo.abs().max(1.0) };
+        let pad = if hi > lo {
+            0.05 * (hi - lo)
+        } else {
+            0.5 * lo.abs().max(1.0)
+        };
         (lo - pad, hi + pad)
     }
 }
 
 /// Write `plot` as an SVG file of `size` pixels.
 pub fn write_svg(plot: &Plot, path: &Path, size: (u32, u32)) -> Result<(), Box<dyn Error>> {
-    let (mut x0, mut x1) = range(plot.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)), plot.log_x);
-    let (mut y0, mut y1) = range(plot.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)), plot.log_y);
+    let (mut x0, mut x1) = range(
+        plot.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
+        plot.log_x,
+    );
+    let (mut y0, mut y1) = range(
+        plot.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
+        plot.log_y,
+    );
     if plot.equal_aspect && !plot.log_x && !plot.log_y {
         // widen the narrower range so one unit is as long on both axes
         let (w, h) = ((size.0 - 140) as f64, (size.1 - 110) as f64);

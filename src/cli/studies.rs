@@ -134,7 +134,10 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
     }
     prepare(&a.common.out)?;
     let pb = progress(ms.len() as u64, "convergence");
-    let mut study = reckon::studies::convergence::Convergence { rows: vec![], fits: vec![] };
+    let mut study = reckon::studies::convergence::Convergence {
+        rows: vec![],
+        fits: vec![],
+    };
     // a method that fails (e.g. Newton on a problem it cannot handle at these steps)
     // does not stop the others; the first failure is reported after the files are written
     let mut failure: Option<String> = None;
@@ -157,7 +160,15 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
         &dir.join("convergence.csv"),
         "method,h,steps,rhs_evals,final_error,max_error",
         study.rows.iter().map(|r| {
-            format!("{},{},{},{},{},{}", r.method.name(), r.h, r.steps, r.rhs_evals, r.final_error, r.max_error)
+            format!(
+                "{},{},{},{},{},{}",
+                r.method.name(),
+                r.h,
+                r.steps,
+                r.rhs_evals,
+                r.final_error,
+                r.max_error
+            )
         }),
     )?;
     let mut plot = Plot::new(
@@ -167,7 +178,12 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
     )
     .log_log();
     for f in &study.fits {
-        let pts: Vec<(f64, f64)> = study.rows.iter().filter(|r| r.method == f.method).map(|r| (r.h, r.final_error)).collect();
+        let pts: Vec<(f64, f64)> = study
+            .rows
+            .iter()
+            .filter(|r| r.method == f.method)
+            .map(|r| (r.h, r.final_error))
+            .collect();
         plot = plot.with(Series::new(
             format!("{} (slope {})", f.method.name(), fmt_order(f.order_final)),
             pts,
@@ -183,7 +199,10 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!("{}: {}", p.name(), p.describe());
-        println!("{:<16} {:>14} {:>14} {:>8}", "method", "order (final)", "order (max)", "theory");
+        println!(
+            "{:<16} {:>14} {:>14} {:>8}",
+            "method", "order (final)", "order (max)", "theory"
+        );
         for f in &study.fits {
             println!(
                 "{:<16} {:>14} {:>14} {:>8}",
@@ -205,7 +224,10 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
 pub fn stability_files(dir: &Path) -> Res<Vec<(f64, f64, f64)>> {
     let methods = [
         (StabilityOf::ExplicitEuler, "explicit Euler |1 + z| = 1"),
-        (StabilityOf::ImplicitEuler, "implicit Euler |1/(1 - z)| = 1 (stable outside)"),
+        (
+            StabilityOf::ImplicitEuler,
+            "implicit Euler |1/(1 - z)| = 1 (stable outside)",
+        ),
         (StabilityOf::Dopri5, "DP5 |R(z)| = 1 (stable inside)"),
     ];
     let mut plot = Plot::new("Linear stability regions |R(hλ)| ≤ 1", "Re(hλ)", "Im(hλ)").equal();
@@ -215,7 +237,11 @@ pub fn stability_files(dir: &Path) -> Res<Vec<(f64, f64, f64)>> {
         for s in &segs {
             csv.push(format!("{m:?},{},{},{},{}", s[0].0, s[0].1, s[1].0, s[1].1));
         }
-        plot = plot.with(Series::new(label, segs.iter().flat_map(|s| [s[0], s[1]]).collect(), Style::Segments));
+        plot = plot.with(Series::new(
+            label,
+            segs.iter().flat_map(|s| [s[0], s[1]]).collect(),
+            Style::Segments,
+        ));
     }
     write_svg(&plot, &dir.join("stability_regions.svg"), (760, 640))?;
     write_csv(&dir.join("stability_boundary.csv"), "method,x0,y0,x1,y1", csv)?;
@@ -238,7 +264,11 @@ pub fn history_plot(title: &str, hist: &[History]) -> Plot {
             Some(_) => format!("{} ({} steps, stopped at t = {:.3})", h.method, h.accepted, h.reached),
             None => format!("{} ({} steps)", h.method, h.accepted),
         };
-        plot = plot.with(Series::new(label, h.t.iter().copied().zip(h.h.iter().copied()).collect(), Style::Line));
+        plot = plot.with(Series::new(
+            label,
+            h.t.iter().copied().zip(h.h.iter().copied()).collect(),
+            Style::Line,
+        ));
     }
     plot
 }
@@ -263,9 +293,14 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
     write_csv(
         &dir.join("step_sizes.csv"),
         "method,t,h",
-        hist.iter().flat_map(|h| h.t.iter().zip(&h.h).map(move |(t, s)| format!("{},{t},{s}", h.method))),
+        hist.iter()
+            .flat_map(|h| h.t.iter().zip(&h.h).map(move |(t, s)| format!("{},{t},{s}", h.method))),
     )?;
-    write_svg(&history_plot(&format!("Step sizes: {}", p.name()), &hist), &dir.join("step_sizes.svg"), (860, 560))?;
+    write_svg(
+        &history_plot(&format!("Step sizes: {}", p.name()), &hist),
+        &dir.join("step_sizes.svg"),
+        (860, 560),
+    )?;
     write_csv(
         &dir.join("stiffness_ratio.csv"),
         "t,spectral_radius,stiffness_ratio",
@@ -277,10 +312,22 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
         "eigenvalues of the autodiff Jacobian",
     )
     .log_y()
-    .with(Series::new("stiffness ratio max|Re λ|/min|Re λ|", pts.iter().map(|q| (q.t, q.ratio)).collect(), Style::Line))
-    .with(Series::new("spectral radius ρ(J) (1/s)", pts.iter().map(|q| (q.t, q.spectral_radius)).collect(), Style::Line));
+    .with(Series::new(
+        "stiffness ratio max|Re λ|/min|Re λ|",
+        pts.iter().map(|q| (q.t, q.ratio)).collect(),
+        Style::Line,
+    ))
+    .with(Series::new(
+        "spectral radius ρ(J) (1/s)",
+        pts.iter().map(|q| (q.t, q.spectral_radius)).collect(),
+        Style::Line,
+    ));
     write_svg(&plot, &dir.join("stiffness_ratio.svg"), (860, 560))?;
-    let max_ratio = pts.iter().map(|q| q.ratio).filter(|r| r.is_finite()).fold(1.0, f64::max);
+    let max_ratio = pts
+        .iter()
+        .map(|q| q.ratio)
+        .filter(|r| r.is_finite())
+        .fold(1.0, f64::max);
     if a.common.json {
         let v = serde_json::json!({
             "problem": p.name(), "description": p.describe(), "histories": hist,
@@ -293,7 +340,10 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
     } else {
         println!("{}: {}", p.name(), p.describe());
         for h in &hist {
-            print!("{:<15} accepted {:>8} rejected {:>6} rhs evals {:>9}", h.method, h.accepted, h.rejected, h.rhs_evals);
+            print!(
+                "{:<15} accepted {:>8} rejected {:>6} rhs evals {:>9}",
+                h.method, h.accepted, h.rejected, h.rhs_evals
+            );
             if let Some(t) = h.stiff_at {
                 print!("  stiffness detected at t = {t:.4}");
             }
@@ -306,7 +356,10 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
         for (l, h, t) in &dahl {
             println!("explicit Euler on λ = {l}: unstable above h = {h:.6} (theory 2/|λ| = {t:.6})");
         }
-        println!("wrote step_sizes, stiffness_ratio, stability_regions (CSV and SVG) in {}", dir.display());
+        println!(
+            "wrote step_sizes, stiffness_ratio, stability_regions (CSV and SVG) in {}",
+            dir.display()
+        );
     }
     Ok(())
 }
@@ -329,7 +382,17 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
     write_csv(
         &dir.join("work_precision.csv"),
         "method,setting,error,rhs_evals,steps,seconds",
-        pts.iter().map(|w| format!("{},{},{},{},{},{}", w.method.name(), w.setting, w.error, w.rhs_evals, w.steps, w.seconds)),
+        pts.iter().map(|w| {
+            format!(
+                "{},{},{},{},{},{}",
+                w.method.name(),
+                w.setting,
+                w.error,
+                w.rhs_evals,
+                w.steps,
+                w.seconds
+            )
+        }),
     )?;
     for (file, xl, pick) in [
         ("error_vs_rhs_evals.svg", "rhs evaluations", 0),
@@ -354,7 +417,10 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!("{}: {}", p.name(), p.describe());
-        println!("{:<16} {:>10} {:>12} {:>11} {:>10}", "method", "setting", "error", "rhs evals", "ms");
+        println!(
+            "{:<16} {:>10} {:>12} {:>11} {:>10}",
+            "method", "setting", "error", "rhs evals", "ms"
+        );
         for w in &pts {
             println!(
                 "{:<16} {:>10.1e} {:>12.3e} {:>11} {:>10.3}",
@@ -365,7 +431,10 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
                 w.seconds * 1e3
             );
         }
-        println!("wrote work_precision.csv, error_vs_rhs_evals.svg, error_vs_time.svg in {}", dir.display());
+        println!(
+            "wrote work_precision.csv, error_vs_rhs_evals.svg, error_vs_time.svg in {}",
+            dir.display()
+        );
     }
     Ok(())
 }

@@ -371,11 +371,34 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
     positive("step", &steps)?;
     let p = lookup(&a.common.problem)?;
     prepare(&a.common.out)?;
-    let pb = progress(ms.len() as u64, "work-precision");
+    // one run per (method, setting), so that a failing setting (e.g. a step-size
+    // underflow at a loose tolerance) is reported without losing the others
+    let settings = |m: &MethodKind| {
+        if *m == MethodKind::Euler {
+            steps.len()
+        } else {
+            a.tolerances.len()
+        }
+    };
+    let pb = progress(ms.iter().map(|m| settings(m) as u64).sum(), "work-precision");
     let mut pts = Vec::new();
+    let mut failure: Option<String> = None;
     for m in &ms {
-        pts.extend(p.work_precision(&[*m], &a.tolerances, &steps, a.runs)?);
-        pb.inc(1);
+        for k in 0..settings(m) {
+            let (tols, hs) = if *m == MethodKind::Euler {
+                (&a.tolerances[..1], &steps[k..=k])
+            } else {
+                (&a.tolerances[k..=k], &steps[..0])
+            };
+            match p.work_precision(&[*m], tols, hs, a.runs) {
+                Ok(w) => pts.extend(w),
+                Err(e) => {
+                    let setting = if *m == MethodKind::Euler { hs[0] } else { tols[0] };
+                    failure.get_or_insert(format!("{} at {setting:e} failed on {}: {e}", m.name(), p.name()));
+                }
+            }
+            pb.inc(1);
+        }
     }
     pb.finish_and_clear();
     let dir = &a.common.out;
@@ -436,5 +459,8 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
             dir.display()
         );
     }
-    Ok(())
+    match failure {
+        Some(f) => Err(f.into()),
+        None => Ok(()),
+    }
 }

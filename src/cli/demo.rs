@@ -103,18 +103,7 @@ pub fn run(out: &mut dyn Write) -> Res {
         row(out, &p, Dopri5::default(), &format!("tol = {tol:e}"), &tight(tol), &y0)?;
     }
 
-    // a unicycle driven by held inputs: straight, left arc, straight (ω = 0 exactly), right arc
-    let controls = Controls::new(
-        vec![0.0, 2.0, 4.5, 6.0, 8.0, 10.0],
-        vec![
-            vec![1.0, 0.0],
-            vec![1.5, 0.6],
-            vec![2.0, 0.0],
-            vec![1.0, -0.9],
-            vec![0.5, 0.3],
-            vec![0.0, 0.0],
-        ],
-    )?;
+    let controls = unicycle_scenario()?;
     let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 10.0)).controls(controls);
     let exact_sol = p.solve(Exact::new(unicycle::flow), &Options::default())?;
     let ex = *exact_sol.last().1;
@@ -174,4 +163,20 @@ pub fn run(out: &mut dyn Write) -> Res {
         "\nRK45's step on Van der Pol is pinned by stability (|hλ| ≤ 3.3), not accuracy: see its step count and the stiffness note."
     )?;
     Ok(())
+}
+
+/// The unicycle scenario shared by the demo table and the report: straight, left arc,
+/// straight (ω = 0 exactly), right arc, slow left arc, over 10 s.
+pub fn unicycle_scenario() -> Result<Controls, reckon::Error> {
+    Controls::new(
+        vec![0.0, 2.0, 4.5, 6.0, 8.0, 10.0],
+        vec![
+            vec![1.0, 0.0],
+            vec![1.5, 0.6],
+            vec![2.0, 0.0],
+            vec![1.0, -0.9],
+            vec![0.5, 0.3],
+            vec![0.0, 0.0],
+        ],
+    )
 }

@@ -304,17 +304,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         r.end();
     }
     // unicycle and car-like
-    let uc = Controls::new(
-        vec![0.0, 2.0, 4.5, 6.0, 8.0, 10.0],
-        vec![
-            vec![1.0, 0.0],
-            vec![1.5, 0.6],
-            vec![2.0, 0.0],
-            vec![1.0, -0.9],
-            vec![0.5, 0.3],
-            vec![0.0, 0.0],
-        ],
-    )?;
+    let uc = super::demo::unicycle_scenario()?;
     r.section(
         "Unicycle with held inputs",
         "Straight, left arc, straight (ω = 0 exactly), right arc. The exact flow is the sinc-form arc.",

@@ -181,3 +181,23 @@ fn dynamic_brusselator_with_faer_lu() {
     let d2: DVector<f64> = fixed.last().1 - rk.last().1;
     assert!(d2.amax() < 5e-3, "fixed-step implicit Euler differs by {}", d2.amax());
 }
+
+/// Events while integrating backward: x = cos t from t = 10 down to 0 crosses zero at
+/// 5π/2, 3π/2, π/2 (in that order).
+#[test]
+fn events_backward() {
+    let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
+    let x10 = vector![10f64.cos(), -10f64.sin()];
+    let p = Problem::new(&f, x10, (10.0, 0.0)).event(Event::new(|_t, x: &SVector<f64, 2>| x[0]));
+    let sol = p
+        .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .unwrap();
+    let pi = std::f64::consts::PI;
+    let ts: Vec<f64> = sol.events.iter().map(|e| e.t).collect();
+    let expect = [2.5 * pi, 1.5 * pi, 0.5 * pi];
+    assert_eq!(ts.len(), 3, "{ts:?}");
+    for (t, e) in ts.iter().zip(expect) {
+        assert!((t - e).abs() < 1e-9, "{t} vs {e}");
+    }
+    assert_eq!(sol.last().0, 0.0);
+}

@@ -208,3 +208,48 @@ fn underwater_slam_on_synthetic_data() {
     let _ = (DMatrix::<f64>::zeros(1, 1), DVector::<f64>::zeros(1));
     eprintln!("final horizontal error: SLAM {slam_err:.3} m, dead reckoning {dr_err:.3} m");
 }
+
+/// An EKF on a unicycle: noisy speed and turn-rate readings drive the prediction through
+/// RK45 steps linearised by autodiff; position fixes every second correct it. The
+/// normalised estimation error squared (NEES) averaged over the fixes is consistent
+/// with its χ² expectation of 3.
+#[test]
+fn ekf_unicycle_with_position_fixes() {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    use reckon::kalman::step::ekf_predict;
+    let mut nees_sum = 0.0;
+    let mut count = 0;
+    for seed in 0..20u64 {
+        let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
+        let n = Normal::new(0.0, 1.0).unwrap();
+        let (dt, sv, sw, sp) = (0.1, 0.1, 0.05, 0.5);
+        let sys = unicycle::model();
+        let mut truth = vector![0.0, 0.0, 0.0];
+        let mut kf = Kalman::new(truth, Matrix3::identity() * 1e-6);
+        // input noise (σ_v, σ_ω) maps into the state through B = ∂φ/∂u ≈ h·[cos θ, 0; sin θ, 0; 0, 1]
+        for k in 0..600 {
+            let t = k as f64 * dt;
+            let (v, w) = (1.0 + 0.5 * (0.1 * t).sin(), 0.3 * (0.05 * t).cos());
+            truth = unicycle::flow(t, &truth, &[v, w], dt);
+            let (vm, wm) = (v + sv * n.sample(&mut rng), w + sw * n.sample(&mut rng));
+            let th = kf.x[2];
+            let b = nalgebra::Matrix3x2::new(dt * th.cos(), 0.0, dt * th.sin(), 0.0, 0.0, dt);
+            let q = b * Matrix2::new(sv * sv, 0.0, 0.0, sw * sw) * b.transpose();
+            ekf_predict(&mut kf, &sys, Discretization::Rk45, t, &[vm, wm], dt, &q).unwrap();
+            if (k + 1) % 10 == 0 {
+                let z = Vector2::new(truth[0] + sp * n.sample(&mut rng), truth[1] + sp * n.sample(&mut rng));
+                let c = nalgebra::Matrix2x3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+                kf.correct(&z, &c, &(Matrix2::identity() * sp * sp)).unwrap();
+                let e = kf.x - truth;
+                nees_sum += e.dot(&(kf.p.try_inverse().unwrap() * e));
+                count += 1;
+            }
+        }
+    }
+    let nees = nees_sum / count as f64;
+    eprintln!("average NEES over {count} fixes: {nees:.3}");
+    // 1200 fixes: the mean of χ²₃ has standard deviation √(6/1200) ≈ 0.07; allow for the
+    // linearisation and the correlation between successive fixes
+    assert!((nees - 3.0).abs() < 0.6, "average NEES {nees}");
+}

@@ -138,3 +138,35 @@ pub fn flow_jacobian<const N: usize>(
 ) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
     num_dual::jacobian(|xd: SVector<DualSVec64<N>, N>| flow(&xd), x)
 }
+
+/// EKF prediction through one step of a model: `x̂ ← φ_h(x̂)`, `Γ ← A·Γ·Aᵀ + Γ_α` with
+/// `A = ∂φ_h/∂x` from [`step_jacobian`] (automatic differentiation through the step).
+///
+/// ```
+/// use reckon::kalman::{Kalman, step::{ekf_predict, Discretization}};
+/// use reckon::models::unicycle;
+/// use nalgebra::{vector, Matrix3};
+/// let mut k = Kalman::new(vector![0.0, 0.0, 0.0], Matrix3::identity() * 0.01);
+/// ekf_predict(&mut k, &unicycle::model(), Discretization::Rk45, 0.0, &[1.0, 0.0], 1.0, &Matrix3::zeros()).unwrap();
+/// assert!((k.x[0] - 1.0).abs() < 1e-15);
+/// // heading uncertainty turns into lateral uncertainty: σ_y² = 0.01 + 1²·0.01
+/// assert!((k.p[(1, 1)] - 0.02).abs() < 1e-15);
+/// ```
+#[allow(clippy::too_many_arguments)]
+pub fn ekf_predict<const N: usize, S: DualSystem<Const<N>>>(
+    kf: &mut super::Kalman<Const<N>>,
+    sys: &S,
+    disc: Discretization,
+    t: f64,
+    u: &[f64],
+    h: f64,
+    q: &SMatrix<f64, N, N>,
+) -> Result<()>
+where
+    Const<N>: crate::linalg::LuDim,
+{
+    let (x1, a) = step_jacobian(sys, disc, t, &kf.x, u, h)?;
+    kf.predict(&a, &(x1 - a * kf.x), q);
+    kf.x = x1;
+    Ok(())
+}

@@ -396,13 +396,14 @@ where
         if self.adaptive {
             self.check_stiffness(h, t_new);
         }
+        let mut stopped = false;
         if self.keep_dense {
             self.method
                 .dense(&mut self.f, self.t, h, &self.x, &self.x_new, &mut self.dense)?;
+            stopped = self.check_events(h, &mut t_new)?;
+            self.last_step = (self.t, h, t_new);
         }
-        let stopped = self.check_events(h, &mut t_new)?;
         self.method.accept();
-        self.last_step = (self.t, h, t_new);
         std::mem::swap(&mut self.x, &mut self.x_new);
         self.t = t_new;
         if stopped {
@@ -481,8 +482,9 @@ where
         }
     }
 
-    /// Locate event zeros in the step just taken; `true` if a terminal one cut it short
-    /// (then `t_new` and `x_new` are moved to the event).
+    /// Locate event zeros in the step just taken (dense output is on whenever there are
+    /// events); `true` if a terminal one cut it short (then `t_new` and `x_new` are moved
+    /// to the event).
     fn check_events(&mut self, h: f64, t_new: &mut f64) -> Result<bool> {
         let events = &self.problem.events;
         if events.is_empty() {

@@ -8,6 +8,14 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 ///
 /// `accepted + rejected` is the number of step attempts; `rejected` includes steps
 /// retried because Newton failed.
+///
+/// ```
+/// use reckon::{model, Options, Problem, methods::ExplicitEuler};
+/// use nalgebra::vector;
+/// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+/// let s = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(ExplicitEuler, &Options::default().fixed(0.1)).unwrap().stats;
+/// assert_eq!((s.accepted, s.rhs_evals, s.jacobian_evals), (10, 10, 0)); // one f call per Euler step
+/// ```
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Stats {
     /// Calls of `f(t, x)`.
@@ -126,6 +134,15 @@ where
 
     /// The state at any `t` inside the span, from the method's dense output
     /// (4th order for RK45, linear for the Euler methods, cubic Hermite for exact flows).
+    ///
+    /// ```
+    /// use reckon::{model, Options, Problem, methods::Dopri5};
+    /// use nalgebra::vector;
+    /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+    /// let sol = Problem::new(&f, vector![1.0], (0.0, 2.0)).solve(Dopri5::default(), &Options::default().rtol(1e-9).atol(1e-12)).unwrap();
+    /// assert!((sol.at(0.7).unwrap()[0] - (-0.7f64).exp()).abs() < 1e-8); // between steps
+    /// assert!(sol.at(2.5).is_err()); // outside the span
+    /// ```
     pub fn at(&self, t: f64) -> Result<OVector<f64, D>> {
         if self.dense.is_empty() {
             return if self.t.len() == 1 && t == self.t[0] {

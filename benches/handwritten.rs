@@ -176,8 +176,10 @@ pub fn van_der_pol(_t: f64, y: &[f64; 2]) -> [f64; 2] {
 pub fn arenstorf(_t: f64, y: &[f64; 4]) -> [f64; 4] {
     let mu = 0.012277471;
     let mu1 = 1.0 - mu;
-    let d1 = ((y[0] + mu).powi(2) + y[1].powi(2)).powf(1.5);
-    let d2 = ((y[0] - mu1).powi(2) + y[1].powi(2)).powf(1.5);
+    let r1 = (y[0] + mu).powi(2) + y[1].powi(2);
+    let r2 = (y[0] - mu1).powi(2) + y[1].powi(2);
+    let d1 = r1 * r1.sqrt();
+    let d2 = r2 * r2.sqrt();
     [
         y[2],
         y[3],

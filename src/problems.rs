@@ -43,8 +43,11 @@ pub fn arenstorf() -> impl crate::DualSystem<Const<4>> + Clone {
     crate::model!(|_t, y: [S; 4]| {
         let mu = ARENSTORF_MU;
         let mu1 = 1.0 - mu;
-        let d1 = ((y[0] + mu).powi(2) + y[1].powi(2)).powf(1.5);
-        let d2 = ((y[0] - mu1).powi(2) + y[1].powi(2)).powf(1.5);
+        // r³ as r²·√(r²): exact to rounding and far cheaper than powf(1.5)
+        let r1 = (y[0] + mu).powi(2) + y[1].powi(2);
+        let r2 = (y[0] - mu1).powi(2) + y[1].powi(2);
+        let d1 = r1.clone() * r1.sqrt();
+        let d2 = r2.clone() * r2.sqrt();
         vector![
             y[2],
             y[3],

@@ -1,80 +1,17 @@
 //! The driver: step-size control, breakpoints, dense output, events, statistics and
 //! errors, for any [`Method`]. It never asks which method it holds.
 
+mod checks;
+
 use crate::control::{Controller, Weights, initial_step};
-use crate::controls::Controls;
 use crate::error::{Error, Result};
-use crate::events::{Event, locate};
 use crate::methods::{Failure, Method, Outcome};
 use crate::options::{Options, StepSize};
-use crate::solution::{DenseSegment, EventHit, Solution, Stats, Stiffness, horner};
+use crate::problem::Problem;
+use crate::solution::{DenseSegment, EventHit, Solution, Stats, Stiffness};
 use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
-
-/// An initial-value problem `x' = f(t, x, u)`, `x(t0) = x0`, on `[t0, t_end]`
-/// (`t_end < t0` integrates backward), with optional held inputs and events.
-///
-/// ```
-/// use reckon::{model, Problem, Options, methods::Dopri5};
-/// use nalgebra::vector;
-/// let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]); // harmonic oscillator
-/// let sol = Problem::new(&f, vector![1.0, 0.0], (0.0, std::f64::consts::PI))
-///     .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12))
-///     .unwrap();
-/// assert!((sol.last().1[0] + 1.0).abs() < 1e-9); // cos π = −1
-/// ```
-pub struct Problem<'a, D: Dim, S>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    /// The model.
-    pub system: S,
-    /// Initial state.
-    pub x0: OVector<f64, D>,
-    /// Start time.
-    pub t0: f64,
-    /// End time.
-    pub t_end: f64,
-    /// Inputs held piecewise constant, if the model reads any.
-    pub controls: Option<Controls>,
-    events: Vec<Event<'a, D>>,
-}
-
-impl<'a, D: Dim, S: System<D>> Problem<'a, D, S>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    /// `x' = f(t, x)`, `x(span.0) = x0`, integrated to `span.1`.
-    pub fn new(system: S, x0: OVector<f64, D>, span: (f64, f64)) -> Self {
-        Problem {
-            system,
-            x0,
-            t0: span.0,
-            t_end: span.1,
-            controls: None,
-            events: Vec::new(),
-        }
-    }
-    /// Hold inputs piecewise constant; every control time becomes a breakpoint.
-    pub fn controls(mut self, controls: Controls) -> Self {
-        self.controls = Some(controls);
-        self
-    }
-    /// Watch for zeros of an event function.
-    pub fn event(mut self, event: Event<'a, D>) -> Self {
-        self.events.push(event);
-        self
-    }
-    /// A stepper over this problem: call [`Integrator::step`] or iterate.
-    pub fn integrator<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Integrator<'_, 'a, D, S, M>> {
-        Integrator::new(self, method, opts)
-    }
-    /// Integrate from `t0` to `t_end` and return every step.
-    pub fn solve<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Solution<D>> {
-        self.integrator(method, opts)?.solve()
-    }
-}
 
 /// Integrates a [`Problem`] one accepted step at a time.
 ///
@@ -130,7 +67,7 @@ impl<'p, 'a, D: Dim, S: System<D>, M: Method<D>> Integrator<'p, 'a, D, S, M>
 where
     DefaultAllocator: Allocator<D>,
 {
-    fn new(problem: &'p Problem<'a, D, S>, mut method: M, opts: &Options) -> Result<Self> {
+    pub(crate) fn new(problem: &'p Problem<'a, D, S>, mut method: M, opts: &Options) -> Result<Self> {
         opts.validate()?;
         let (t0, t_end, x0) = (problem.t0, problem.t_end, &problem.x0);
         if !t0.is_finite() || !t_end.is_finite() {
@@ -439,85 +376,6 @@ where
             }
         }
         Ok(())
-    }
-
-    /// At a breakpoint: switch to the inputs of the interval ahead and tell the method.
-    fn enter_segment(&mut self) {
-        if let Some(c) = &self.problem.controls
-            && let Some(k) = c.segment(self.t, self.dir)
-            && Some(k) != self.segment
-        {
-            self.segment = Some(k);
-            self.f.u.clear();
-            self.f.u.extend_from_slice(c.values(k));
-        }
-        self.method.reset();
-    }
-
-    /// DOPRI5's test: `h·λ > 3.25` fifteen times without six non-stiff verdicts between.
-    fn check_stiffness(&mut self, h: f64, t_new: f64) {
-        let Some(every) = self.stiff_every else { return };
-        let (stiff, nonstiff) = &mut self.stiff_count;
-        self.stiff_countdown -= 1;
-        if self.stiff_countdown > 0 && *stiff == 0 {
-            return;
-        }
-        if self.stiff_countdown == 0 {
-            self.stiff_countdown = every;
-        }
-        let Some(hl) = self.method.stiffness(h, &self.x_new) else {
-            return;
-        };
-        if hl > 3.25 {
-            *nonstiff = 0;
-            *stiff += 1;
-            if *stiff == 15 && self.stiffness.is_none() {
-                self.stiffness = Some(Stiffness { t: t_new, h_lambda: hl });
-            }
-        } else {
-            *nonstiff += 1;
-            if *nonstiff == 6 {
-                *stiff = 0;
-            }
-        }
-    }
-
-    /// Locate event zeros in the step just taken (dense output is on whenever there are
-    /// events); `true` if a terminal one cut it short (then `t_new` and `x_new` are moved
-    /// to the event).
-    fn check_events(&mut self, h: f64, t_new: &mut f64) -> Result<bool> {
-        let events = &self.problem.events;
-        if events.is_empty() {
-            return Ok(false);
-        }
-        let mut found: Vec<(f64, usize)> = Vec::new();
-        for (i, ev) in events.iter().enumerate() {
-            let g1 = (ev.g)(*t_new, &self.x_new);
-            if ev.crosses(self.g_prev[i], g1) {
-                let te = if g1 == 0.0 {
-                    *t_new
-                } else {
-                    locate(ev, i, &self.dense, self.t, h, *t_new)?
-                };
-                found.push((te, i));
-            }
-            self.g_prev[i] = g1;
-        }
-        found.sort_by(|a, b| (self.dir * a.0).total_cmp(&(self.dir * b.0)));
-        for (te, i) in found {
-            let x = horner(&self.dense, (te - self.t) / h);
-            self.hits.push(EventHit {
-                index: i,
-                t: te,
-                x: x.clone(),
-            });
-            if events[i].terminal {
-                *t_new = te;
-                self.x_new = x;
-                return Ok(true);
-            }
-        }
-        Ok(false)
     }
 
     /// Run to the end and collect every step.

@@ -1,0 +1,95 @@
+//! What the driver checks after each accepted step: breakpoints (input switches),
+//! DOPRI5's stiffness test, and event zeros.
+
+use super::Integrator;
+use crate::error::Result;
+use crate::events::locate;
+use crate::methods::Method;
+use crate::solution::{EventHit, Stiffness, horner};
+use crate::system::System;
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim};
+
+impl<D: Dim, S: System<D>, M: Method<D>> Integrator<'_, '_, D, S, M>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// At a breakpoint: switch to the inputs of the interval ahead and tell the method.
+    pub(super) fn enter_segment(&mut self) {
+        if let Some(c) = &self.problem.controls
+            && let Some(k) = c.segment(self.t, self.dir)
+            && Some(k) != self.segment
+        {
+            self.segment = Some(k);
+            self.f.u.clear();
+            self.f.u.extend_from_slice(c.values(k));
+        }
+        self.method.reset();
+    }
+
+    /// DOPRI5's test: `h·λ > 3.25` fifteen times without six non-stiff verdicts between.
+    pub(super) fn check_stiffness(&mut self, h: f64, t_new: f64) {
+        let Some(every) = self.stiff_every else { return };
+        let (stiff, nonstiff) = &mut self.stiff_count;
+        self.stiff_countdown -= 1;
+        if self.stiff_countdown > 0 && *stiff == 0 {
+            return;
+        }
+        if self.stiff_countdown == 0 {
+            self.stiff_countdown = every;
+        }
+        let Some(hl) = self.method.stiffness(h, &self.x_new) else {
+            return;
+        };
+        if hl > 3.25 {
+            *nonstiff = 0;
+            *stiff += 1;
+            if *stiff == 15 && self.stiffness.is_none() {
+                self.stiffness = Some(Stiffness { t: t_new, h_lambda: hl });
+            }
+        } else {
+            *nonstiff += 1;
+            if *nonstiff == 6 {
+                *stiff = 0;
+            }
+        }
+    }
+
+    /// Locate event zeros in the step just taken (dense output is on whenever there are
+    /// events); `true` if a terminal one cut it short (then `t_new` and `x_new` are moved
+    /// to the event).
+    pub(super) fn check_events(&mut self, h: f64, t_new: &mut f64) -> Result<bool> {
+        let events = &self.problem.events;
+        if events.is_empty() {
+            return Ok(false);
+        }
+        let mut found: Vec<(f64, usize)> = Vec::new();
+        for (i, ev) in events.iter().enumerate() {
+            let g1 = (ev.g)(*t_new, &self.x_new);
+            if ev.crosses(self.g_prev[i], g1) {
+                let te = if g1 == 0.0 {
+                    *t_new
+                } else {
+                    locate(ev, i, &self.dense, self.t, h, *t_new)?
+                };
+                found.push((te, i));
+            }
+            self.g_prev[i] = g1;
+        }
+        found.sort_by(|a, b| (self.dir * a.0).total_cmp(&(self.dir * b.0)));
+        for (te, i) in found {
+            let x = horner(&self.dense, (te - self.t) / h);
+            self.hits.push(EventHit {
+                index: i,
+                t: te,
+                x: x.clone(),
+            });
+            if events[i].terminal {
+                *t_new = te;
+                self.x_new = x;
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+}

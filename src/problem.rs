@@ -1,0 +1,76 @@
+//! An initial-value problem: model, initial state, span, held inputs, events.
+
+use crate::controls::Controls;
+use crate::error::Result;
+use crate::events::Event;
+use crate::integrator::Integrator;
+use crate::methods::Method;
+use crate::options::Options;
+use crate::solution::Solution;
+use crate::system::System;
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// An initial-value problem `x' = f(t, x, u)`, `x(t0) = x0`, on `[t0, t_end]`
+/// (`t_end < t0` integrates backward), with optional held inputs and events.
+///
+/// ```
+/// use reckon::{model, Problem, Options, methods::Dopri5};
+/// use nalgebra::vector;
+/// let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]); // harmonic oscillator
+/// let sol = Problem::new(&f, vector![1.0, 0.0], (0.0, std::f64::consts::PI))
+///     .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12))
+///     .unwrap();
+/// assert!((sol.last().1[0] + 1.0).abs() < 1e-9); // cos π = −1
+/// ```
+pub struct Problem<'a, D: Dim, S>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// The model.
+    pub system: S,
+    /// Initial state.
+    pub x0: OVector<f64, D>,
+    /// Start time.
+    pub t0: f64,
+    /// End time.
+    pub t_end: f64,
+    /// Inputs held piecewise constant, if the model reads any.
+    pub controls: Option<Controls>,
+    pub(crate) events: Vec<Event<'a, D>>,
+}
+
+impl<'a, D: Dim, S: System<D>> Problem<'a, D, S>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// `x' = f(t, x)`, `x(span.0) = x0`, integrated to `span.1`.
+    pub fn new(system: S, x0: OVector<f64, D>, span: (f64, f64)) -> Self {
+        Problem {
+            system,
+            x0,
+            t0: span.0,
+            t_end: span.1,
+            controls: None,
+            events: Vec::new(),
+        }
+    }
+    /// Hold inputs piecewise constant; every control time becomes a breakpoint.
+    pub fn controls(mut self, controls: Controls) -> Self {
+        self.controls = Some(controls);
+        self
+    }
+    /// Watch for zeros of an event function.
+    pub fn event(mut self, event: Event<'a, D>) -> Self {
+        self.events.push(event);
+        self
+    }
+    /// A stepper over this problem: call [`Integrator::step`] or iterate.
+    pub fn integrator<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Integrator<'_, 'a, D, S, M>> {
+        Integrator::new(self, method, opts)
+    }
+    /// Integrate from `t0` to `t_end` and return every step.
+    pub fn solve<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Solution<D>> {
+        self.integrator(method, opts)?.solve()
+    }
+}

@@ -12,7 +12,8 @@ use crate::error::{Error, Result};
 /// assert_eq!(c.segment(0.5, 1.0), Some(0));
 /// assert_eq!(c.segment(1.0, 1.0), Some(1)); // forward: the interval starting at 1
 /// assert_eq!(c.segment(1.0, -1.0), Some(0)); // backward: the interval ending at 1
-/// assert_eq!(c.values(1), &[2.0]);
+/// assert_eq!(c.values(1), Some(&[2.0][..]));
+/// assert_eq!(c.values(3), None);
 /// assert!(Controls::new(vec![1.0, 0.0], vec![vec![0.0], vec![0.0]]).is_err());
 /// ```
 #[derive(Debug, Clone, PartialEq)]
@@ -63,9 +64,9 @@ impl Controls {
     pub fn times(&self) -> &[f64] {
         &self.times
     }
-    /// Inputs of interval `k`.
-    pub fn values(&self, k: usize) -> &[f64] {
-        &self.values[k]
+    /// Inputs of interval `k` (`None` past the last sample).
+    pub fn values(&self, k: usize) -> Option<&[f64]> {
+        self.values.get(k).map(|v| v.as_slice())
     }
 
     /// The interval in force at `t` when moving in direction `dir` (sign of `h`):

@@ -16,7 +16,7 @@ fn dead_reckoning_covariance_after_one_hour() {
     let mut k = Kalman::new(Vector2::zeros(), Matrix2::zeros());
     let q = Matrix2::identity() * (dt * sv).powi(2);
     for _ in 0..36_000 {
-        k.predict(&Matrix2::identity(), &Vector2::new(0.1, 0.0), &q);
+        k.predict(&Matrix2::identity(), &Vector2::new(0.1, 0.0), &q).unwrap();
     }
     let sigma = k.p[(0, 0)].sqrt();
     assert!((sigma - (dt * 3600.0f64).sqrt() * sv).abs() < 1e-9, "σ = {sigma}");
@@ -47,6 +47,30 @@ fn correction_matches_the_closed_form_and_joseph_keeps_symmetry() {
     assert!((k.p - p_plus).amax() < 1e-14);
     assert_eq!(k.p, k.p.transpose());
     assert!(k.p.symmetric_eigen().eigenvalues.min() > 0.0);
+}
+
+#[test]
+fn dimension_mismatches_are_errors() {
+    let mut k = Kalman::new(DVector::zeros(3), DMatrix::identity(3, 3));
+    assert!(
+        k.predict(&DMatrix::identity(2, 2), &DVector::zeros(3), &DMatrix::zeros(3, 3))
+            .is_err()
+    );
+    assert!(
+        k.correct(&DVector::zeros(1), &DMatrix::zeros(1, 2), &DMatrix::identity(1, 1))
+            .is_err()
+    );
+    assert!(
+        k.correct(&DVector::zeros(2), &DMatrix::zeros(2, 3), &DMatrix::identity(1, 1))
+            .is_err()
+    );
+    let mut sc = synthetic(1);
+    sc.detections.push(reckon::kalman::slam::Detection {
+        sample: 0,
+        landmark: 99,
+        range: 10.0,
+    });
+    assert!(run(&sc).is_err());
 }
 
 #[test]
@@ -205,7 +229,6 @@ fn underwater_slam_on_synthetic_data() {
     let slam_err = (out.positions.last().unwrap() - sc.truth.last().unwrap()).xy().norm();
     let dr_err = (dr - sc.truth.last().unwrap()).xy().norm();
     assert!(slam_err < dr_err, "SLAM {slam_err} vs dead reckoning {dr_err}");
-    let _ = (DMatrix::<f64>::zeros(1, 1), DVector::<f64>::zeros(1));
     eprintln!("final horizontal error: SLAM {slam_err:.3} m, dead reckoning {dr_err:.3} m");
 }
 

@@ -123,7 +123,7 @@ where
         self.problem
             .controls
             .as_ref()
-            .map(|c| c.values(0).to_vec())
+            .and_then(|c| c.values(0).map(|v| v.to_vec()))
             .unwrap_or_default()
     }
 }

@@ -22,7 +22,7 @@ where
         {
             self.segment = Some(k);
             self.f.u.clear();
-            self.f.u.extend_from_slice(c.values(k));
+            self.f.u.extend_from_slice(c.values(k).unwrap_or_default());
         }
         self.method.reset();
     }

@@ -114,7 +114,7 @@ where
                         format!("t0 = {t0} is not after the first control time {}", c.times()[0]),
                     )
                 })?;
-                (Some(k), c.values(k).to_vec())
+                (Some(k), c.values(k).unwrap_or_default().to_vec())
             }
         };
         // stops: breakpoints strictly inside the span, in the direction of travel, then t_end

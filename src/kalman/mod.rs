@@ -65,14 +65,29 @@ where
     /// use nalgebra::{Matrix2, Vector2};
     /// let mut k = Kalman::new(Vector2::new(0.0, 1.0), Matrix2::identity());
     /// let a = Matrix2::new(1.0, 0.1, 0.0, 1.0); // position += 0.1·velocity
-    /// k.predict(&a, &Vector2::zeros(), &(Matrix2::identity() * 0.01));
+    /// k.predict(&a, &Vector2::zeros(), &(Matrix2::identity() * 0.01)).unwrap();
     /// assert!((k.x[0] - 0.1).abs() < 1e-15);
     /// assert!((k.p[(0, 0)] - 1.02).abs() < 1e-15); // 1 + 0.1² + 0.01
     /// ```
-    pub fn predict(&mut self, a: &OMatrix<f64, D, D>, u: &OVector<f64, D>, q: &OMatrix<f64, D, D>) {
+    /// Dimensions that do not match (dynamic sizes) are [`Error::InvalidInput`].
+    pub fn predict(&mut self, a: &OMatrix<f64, D, D>, u: &OVector<f64, D>, q: &OMatrix<f64, D, D>) -> Result<()> {
+        let n = self.x.len();
+        if a.shape() != (n, n) || u.len() != n || q.shape() != (n, n) || self.p.shape() != (n, n) {
+            return Err(Error::invalid(
+                "kalman",
+                format!(
+                    "predict with a state of {n}: A {:?}, u {}, Γ_α {:?}, Γ {:?}",
+                    a.shape(),
+                    u.len(),
+                    q.shape(),
+                    self.p.shape()
+                ),
+            ));
+        }
         self.x = a * &self.x + u;
         self.p = a * &self.p * a.transpose() + q;
         symmetrize(&mut self.p);
+        Ok(())
     }
 
     /// Correction with `y = C·x + β`, `β ~ N(0, Γ_β)`: innovation `ỹ = y − C x̂`,
@@ -98,6 +113,17 @@ where
     where
         DefaultAllocator: Allocator<M> + Allocator<M, M> + Allocator<M, D> + Allocator<D, M>,
     {
+        let (n, m) = (self.x.len(), y.len());
+        if c.shape() != (m, n) || r.shape() != (m, m) || self.p.shape() != (n, n) {
+            return Err(Error::invalid(
+                "kalman",
+                format!(
+                    "correct with a state of {n} and {m} measurements: C {:?}, Γ_β {:?}",
+                    c.shape(),
+                    r.shape()
+                ),
+            ));
+        }
         let innovation = y - c * &self.x;
         let s = c * &self.p * c.transpose() + r;
         let chol = s.clone().cholesky().ok_or(Error::NotPositiveDefinite {

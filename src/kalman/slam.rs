@@ -163,6 +163,27 @@ pub struct SlamResult {
 /// unknown: mean 0, σ = 1000 m).
 pub fn run(sc: &Scenario) -> Result<SlamResult> {
     let k = sc.landmarks.len();
+    let len = sc.t.len();
+    if len == 0
+        || [sc.euler.len(), sc.body_velocity.len(), sc.depth.len(), sc.truth.len()]
+            .iter()
+            .any(|&l| l != len)
+    {
+        return Err(crate::Error::invalid(
+            "scenario",
+            "time, angle, velocity, depth and truth series differ in length",
+        ));
+    }
+    if let Some(d) = sc
+        .detections
+        .iter()
+        .find(|d| d.landmark >= k || d.sample >= len || d.range.is_nan() || d.range < 0.0)
+    {
+        return Err(crate::Error::invalid(
+            "scenario",
+            format!("detection {d:?} names no landmark or sample"),
+        ));
+    }
     let n = 3 + 2 * k;
     let mut p0 = DMatrix::identity(n, n) * 1e6;
     for i in 0..3 {
@@ -227,7 +248,7 @@ pub fn run(sc: &Scenario) -> Result<SlamResult> {
         u.fixed_rows_mut::<3>(0)
             .copy_from(&(rotation(e[0], e[1], e[2]) * sc.body_velocity[s] * sc.dt));
         if s + 1 < sc.t.len() {
-            kf.predict(&a, &u, &q);
+            kf.predict(&a, &u, &q)?;
         }
     }
     out.landmarks = (0..k)

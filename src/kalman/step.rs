@@ -166,7 +166,7 @@ where
     Const<N>: crate::linalg::LuDim,
 {
     let (x1, a) = step_jacobian(sys, disc, t, &kf.x, u, h)?;
-    kf.predict(&a, &(x1 - a * kf.x), q);
+    kf.predict(&a, &(x1 - a * kf.x), q)?;
     kf.x = x1;
     Ok(())
 }

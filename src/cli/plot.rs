@@ -34,6 +34,14 @@ impl Series {
     }
 }
 
+/// Legend placement, on the right-hand side.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Legend {
+    Upper,
+    Middle,
+    Lower,
+}
+
 /// A 2-D plot.
 #[derive(Debug, Clone)]
 pub struct Plot {
@@ -44,6 +52,8 @@ pub struct Plot {
     pub log_y: bool,
     /// Same scale on both axes (trajectories, stability regions).
     pub equal_aspect: bool,
+    /// Where the legend goes (upper right unless a curve lives there).
+    pub legend: Legend,
     pub series: Vec<Series>,
 }
 
@@ -56,6 +66,7 @@ impl Plot {
             log_x: false,
             log_y: false,
             equal_aspect: false,
+            legend: Legend::Upper,
             series: Vec::new(),
         }
     }
@@ -70,6 +81,10 @@ impl Plot {
     }
     pub fn equal(mut self) -> Self {
         self.equal_aspect = true;
+        self
+    }
+    pub fn legend_at(mut self, pos: Legend) -> Self {
+        self.legend = pos;
         self
     }
     pub fn with(mut self, s: Series) -> Self {
@@ -192,7 +207,11 @@ where
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
+            .position(match plot.legend {
+                Legend::Upper => SeriesLabelPosition::UpperRight,
+                Legend::Middle => SeriesLabelPosition::MiddleRight,
+                Legend::Lower => SeriesLabelPosition::LowerRight,
+            })
             .draw()?;
     }
     Ok(())

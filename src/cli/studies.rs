@@ -258,7 +258,9 @@ pub fn stability_files(dir: &Path) -> Res<Vec<(f64, f64, f64)>> {
 }
 
 pub fn history_plot(title: &str, hist: &[History]) -> Plot {
-    let mut plot = Plot::new(title, "t (s)", "accepted step size h (s)").log_y();
+    let mut plot = Plot::new(title, "t (s)", "accepted step size h (s)")
+        .log_y()
+        .legend_at(super::plot::Legend::Lower);
     for h in hist {
         let label = match &h.stopped_by {
             Some(_) => format!("{} ({} steps, stopped at t = {:.3})", h.method, h.accepted, h.reached),

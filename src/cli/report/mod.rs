@@ -378,6 +378,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         "distance driven (m)",
         "|lateral error| / distance (%)",
     )
+    .legend_at(super::plot::Legend::Middle)
     .with(Series::new(
         "1° heading error",
         heading

@@ -183,7 +183,6 @@ fn exact_flow_jacobian() {
     assert_eq!(x1, unicycle::flow(0.0, &x, &[v, w], h));
     let m = 0.3 + 0.5 * dth;
     assert!((a[(0, 2)] + d * m.sin()).abs() < 1e-15 && (a[(1, 2)] - d * m.cos()).abs() < 1e-15);
-    let _ = body3d::rotation(0.0, 0.0, 0.0);
 }
 
 /// The synthetic underwater survey: every landmark is detected, every true landmark lies

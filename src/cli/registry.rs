@@ -1,7 +1,7 @@
 //! The problems the study commands know, behind one object-safe interface.
 
 use nalgebra::allocator::Allocator;
-use nalgebra::{Const, DVector, DefaultAllocator, Dim, OVector, SVector, vector};
+use nalgebra::{Const, DefaultAllocator, Dim, OVector, SVector, vector};
 use reckon::linalg::LuDim;
 use reckon::methods::{Dopri5, Flow, ImplicitEuler, Method};
 use reckon::models::{bicycle, carlike, unicycle};
@@ -409,15 +409,13 @@ pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> 
         }
         "brusselator" => {
             let n = 20;
-            let mut s = spec(
+            let s = spec(
                 "brusselator",
                 "1-D Brusselator, 20 grid points (40 unknowns, DVector with faer LU), t in [0, 10]; reference RK45 at 1e-12",
                 Problem::new(brusselator(n), brusselator_y0(n), (0.0, 10.0)),
                 None::<ExactFn<nalgebra::Dyn>>,
                 (halvings(0.004, 5), halvings(0.05, 4)),
             );
-            s.rk_reference = true;
-            let _: Option<DVector<f64>> = None;
             Box::new(s)
         }
         _ => return Err(unknown()),

@@ -366,6 +366,26 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
     Ok(())
 }
 
+/// Error at the end time against rhs evaluations (or wall time), one line per method.
+pub fn work_precision_plot(
+    title: &str,
+    x_label: &str,
+    methods: &[MethodKind],
+    pts: &[reckon::studies::work_precision::WorkPoint],
+    by_time: bool,
+) -> Plot {
+    let mut plot = Plot::new(title, x_label, "max-norm error at t_end").log_log();
+    for m in methods {
+        let s: Vec<(f64, f64)> = pts
+            .iter()
+            .filter(|w| w.method == *m)
+            .map(|w| (if by_time { w.seconds } else { w.rhs_evals as f64 }, w.error))
+            .collect();
+        plot = plot.with(Series::new(m.name(), s, Style::LinePoints));
+    }
+    plot
+}
+
 pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
     let ms = methods(&a.methods)?;
     positive("tolerance", &a.tolerances)?;
@@ -423,15 +443,7 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
         ("error_vs_rhs_evals.svg", "rhs evaluations", 0),
         ("error_vs_time.svg", "wall time (s)", 1),
     ] {
-        let mut plot = Plot::new(format!("Work–precision: {}", p.name()), xl, "max-norm error at t_end").log_log();
-        for m in &ms {
-            let s: Vec<(f64, f64)> = pts
-                .iter()
-                .filter(|w| w.method == *m)
-                .map(|w| (if pick == 0 { w.rhs_evals as f64 } else { w.seconds }, w.error))
-                .collect();
-            plot = plot.with(Series::new(m.name(), s, Style::LinePoints));
-        }
+        let plot = work_precision_plot(&format!("Work–precision: {}", p.name()), xl, &ms, &pts, pick == 1);
         write_svg(&plot, &dir.join(file), (800, 560))?;
     }
     if a.common.json {

@@ -4,7 +4,7 @@
 use super::plot::{Plot, Series, Style, write_svg};
 use super::registry::lookup;
 use super::studies::{history_plot, prepare, stability_files};
-use nalgebra::{SVector, Vector2, Vector3, vector};
+use nalgebra::{SVector, Vector3, vector};
 use reckon::kalman::confidence_ellipse;
 use reckon::kalman::slam;
 use reckon::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler};
@@ -543,15 +543,8 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         ("work_precision_evals.svg", "rhs evaluations", false),
         ("work_precision_time.svg", "wall time (s)", true),
     ] {
-        let mut plot = Plot::new("Work–precision: Arenstorf orbit", xl, "max-norm error at T").log_log();
-        for m in [MethodKind::Rk45, MethodKind::ImplicitEuler] {
-            let s: Vec<(f64, f64)> = pts
-                .iter()
-                .filter(|w| w.method == m)
-                .map(|w| (if by_time { w.seconds } else { w.rhs_evals as f64 }, w.error))
-                .collect();
-            plot = plot.with(Series::new(m.name(), s, Style::LinePoints));
-        }
+        let methods = [MethodKind::Rk45, MethodKind::ImplicitEuler];
+        let plot = super::studies::work_precision_plot("Work–precision: Arenstorf orbit", xl, &methods, &pts, by_time);
         r.figure(dir, file, &plot, "Each point is one tolerance.")?;
     }
     r.end();
@@ -565,7 +558,6 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     r.html.push_str("</body></html>\n");
     std::fs::write(dir.join("index.html"), &r.html)
         .map_err(|e| format!("cannot write {}: {e}", dir.join("index.html").display()))?;
-    let _ = Vector2::<f64>::zeros();
     Ok(r.figures)
 }
 

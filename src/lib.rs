@@ -5,6 +5,8 @@
 #[doc = include_str!("../docs/guide.md")]
 pub mod guide {}
 
+#[doc(hidden)]
+pub mod cli;
 pub mod control;
 pub mod controls;
 pub mod error;

@@ -1,10 +1,10 @@
 //! `reckon demo`: every method on built-in problems with known answers.
 
 use nalgebra::{Const, SVector, vector};
-use reckon::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler, Method};
-use reckon::models::unicycle;
-use reckon::problems::*;
-use reckon::{Controls, Options, Problem, System};
+use crate::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler, Method};
+use crate::models::unicycle;
+use crate::problems::*;
+use crate::{Controls, Options, Problem, System};
 use std::io::Write;
 use std::time::Instant;
 
@@ -167,7 +167,7 @@ pub fn run(out: &mut dyn Write) -> Res {
 
 /// The unicycle scenario shared by the demo table and the report: straight, left arc,
 /// straight (ω = 0 exactly), right arc, slow left arc, over 10 s.
-pub fn unicycle_scenario() -> Result<Controls, reckon::Error> {
+pub fn unicycle_scenario() -> Result<Controls, crate::Error> {
     Controls::new(
         vec![0.0, 2.0, 4.5, 6.0, 8.0, 10.0],
         vec![

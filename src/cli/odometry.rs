@@ -1,7 +1,7 @@
 //! `reckon odometry`: dead-reckon a differential-drive robot from encoder increments.
 
 use super::csvio::{open_output, read_table, write_row};
-use reckon::reckoning::encoders::{DiffDrive, Update, advance};
+use crate::reckoning::encoders::{DiffDrive, Update, advance};
 use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;

@@ -2,15 +2,15 @@
 
 use nalgebra::allocator::Allocator;
 use nalgebra::{Const, DefaultAllocator, Dim, OVector, SVector, vector};
-use reckon::linalg::LuDim;
-use reckon::methods::{Dopri5, Flow, ImplicitEuler, Method};
-use reckon::models::{bicycle, carlike, unicycle};
-use reckon::problems::*;
-use reckon::studies::MethodKind;
-use reckon::studies::convergence::{Convergence, convergence};
-use reckon::studies::stiffness::{StiffnessPoint, stiffness_along};
-use reckon::studies::work_precision::{WorkPoint, work_precision};
-use reckon::{Controls, Error, Options, Problem, Result, Solution, System};
+use crate::linalg::LuDim;
+use crate::methods::{Dopri5, Flow, ImplicitEuler, Method};
+use crate::models::{bicycle, carlike, unicycle};
+use crate::problems::*;
+use crate::studies::MethodKind;
+use crate::studies::convergence::{Convergence, convergence};
+use crate::studies::stiffness::{StiffnessPoint, stiffness_along};
+use crate::studies::work_precision::{WorkPoint, work_precision};
+use crate::{Controls, Error, Options, Problem, Result, Solution, System};
 
 /// A step-size history, possibly cut short by an error (RK45 on a stiff problem).
 #[derive(Debug, Clone, serde::Serialize)]
@@ -265,7 +265,7 @@ fn flow_exact<const N: usize, S: System<Const<N>> + Clone + 'static, F: Flow<Con
         }
         let p = Problem::new(sys.clone(), x0, (0.0, t)).controls(c.clone());
         p.solve(
-            reckon::methods::Exact::new(flow.clone()),
+            crate::methods::Exact::new(flow.clone()),
             &Options::default().dense(false),
         )
         .map(|s| *s.last().1)
@@ -288,7 +288,7 @@ pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> 
             ))
         }
         "dahlquist" => {
-            let f = reckon::model!(|_t, x: [S; 1]| vector![x[0] * -2.0]);
+            let f = crate::model!(|_t, x: [S; 1]| vector![x[0] * -2.0]);
             Box::new(spec(
                 "dahlquist",
                 "x' = -2x, x0 = 1, t in [0, 5]; exact: e^(-2t)",

@@ -2,9 +2,9 @@
 
 use super::csvio::{open_output, read_table, write_row};
 use nalgebra::{Const, SVector};
-use reckon::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
-use reckon::models::{bicycle, carlike, unicycle};
-use reckon::{Controls, Options, Problem, System};
+use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
+use crate::models::{bicycle, carlike, unicycle};
+use crate::{Controls, Options, Problem, System};
 use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;
@@ -168,7 +168,7 @@ fn model_run<const N: usize>(
     header: &str,
 ) -> Result<(), Box<dyn Error>>
 where
-    Const<N>: reckon::linalg::LuDim,
+    Const<N>: crate::linalg::LuDim,
 {
     let x0 = match &args.x0 {
         None => SVector::<f64, N>::zeros(),

@@ -4,8 +4,8 @@
 use super::plot::{Plot, Series, Style, write_svg};
 use super::registry::{History, lookup};
 use indicatif::{ProgressBar, ProgressStyle};
-use reckon::studies::MethodKind;
-use reckon::studies::stability::{StabilityOf, boundary, euler_threshold, real_axis_limit};
+use crate::studies::MethodKind;
+use crate::studies::stability::{StabilityOf, boundary, euler_threshold, real_axis_limit};
 use std::error::Error;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -134,7 +134,7 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
     }
     prepare(&a.common.out)?;
     let pb = progress(ms.len() as u64, "convergence");
-    let mut study = reckon::studies::convergence::Convergence {
+    let mut study = crate::studies::convergence::Convergence {
         rows: vec![],
         fits: vec![],
     };
@@ -371,7 +371,7 @@ pub fn work_precision_plot(
     title: &str,
     x_label: &str,
     methods: &[MethodKind],
-    pts: &[reckon::studies::work_precision::WorkPoint],
+    pts: &[crate::studies::work_precision::WorkPoint],
     by_time: bool,
 ) -> Plot {
     let mut plot = Plot::new(title, x_label, "max-norm error at t_end").log_log();

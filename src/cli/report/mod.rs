@@ -5,15 +5,15 @@ use super::plot::{Plot, Series, Style, write_svg};
 use super::registry::lookup;
 use super::studies::{history_plot, prepare, stability_files};
 use nalgebra::{SVector, Vector3, vector};
-use reckon::kalman::confidence_ellipse;
-use reckon::kalman::slam;
-use reckon::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler};
-use reckon::models::{bicycle, carlike, unicycle};
-use reckon::reckoning::drift::{imu_bias_drift, square};
-use reckon::reckoning::encoders::{DiffDrive, Update, odometry};
-use reckon::reckoning::errors::{EncoderErrors, simulate};
-use reckon::studies::MethodKind;
-use reckon::{Controls, Options, Problem, Solution, System};
+use crate::kalman::confidence_ellipse;
+use crate::kalman::slam;
+use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler};
+use crate::models::{bicycle, carlike, unicycle};
+use crate::reckoning::drift::{imu_bias_drift, square};
+use crate::reckoning::encoders::{DiffDrive, Update, odometry};
+use crate::reckoning::errors::{EncoderErrors, simulate};
+use crate::studies::MethodKind;
+use crate::{Controls, Options, Problem, Solution, System};
 use std::error::Error;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -92,7 +92,7 @@ fn vehicle_section<const N: usize>(
     sc: Scenario<N>,
 ) -> Res
 where
-    nalgebra::Const<N>: reckon::linalg::LuDim,
+    nalgebra::Const<N>: crate::linalg::LuDim,
 {
     let Scenario { x0, controls, dt } = sc;
     let t_end = *controls.times().last().unwrap_or(&0.0);
@@ -308,7 +308,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         let mut d = sc.truth[0];
         for s in 0..sc.t.len() - 1 {
             let e = sc.euler[s];
-            d += reckon::models::body3d::rotation(e[0], e[1], e[2]) * sc.body_velocity[s] * sc.dt;
+            d += crate::models::body3d::rotation(e[0], e[1], e[2]) * sc.body_velocity[s] * sc.dt;
         }
         (d - sc.truth[sc.truth.len() - 1]).xy().norm()
     };
@@ -359,12 +359,12 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     // drift against distance
     r.section("Odometry drift against distance", "Straight runs of 1, 2, 5 and 10 m: a 1° heading error gives 1.745% lateral drift (0.1745 m after 10 m); a 0.1% wheel-diameter mismatch curves the path, so its lateral error grows with the square of the distance; slip and pulse noise (seeded) add a random part.");
     let ds = [1.0, 2.0, 5.0, 10.0];
-    let heading = reckon::reckoning::drift::heading_error_drift(1f64.to_radians(), &ds);
+    let heading = crate::reckoning::drift::heading_error_drift(1f64.to_radians(), &ds);
     let sys_err = EncoderErrors {
         left_scale: 1.001,
         ..Default::default()
     };
-    let diam = reckon::reckoning::drift::straight_drift(&robot, &sys_err, &ds, 0.5, 0.01)?;
+    let diam = crate::reckoning::drift::straight_drift(&robot, &sys_err, &ds, 0.5, 0.01)?;
     let rnd_err = EncoderErrors {
         slip_sigma: 0.005,
         pulse_noise: 0.5,
@@ -372,7 +372,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         seed: 11,
         ..Default::default()
     };
-    let rnd = reckon::reckoning::drift::straight_drift(&robot, &rnd_err, &ds, 0.5, 0.01)?;
+    let rnd = crate::reckoning::drift::straight_drift(&robot, &rnd_err, &ds, 0.5, 0.01)?;
     let plot = Plot::new(
         "Lateral drift as a percentage of distance",
         "distance driven (m)",

@@ -3,9 +3,9 @@
 use super::{Report, Res, bicycle_controls, xy};
 use crate::cli::plot::{Plot, Series, Style};
 use nalgebra::Vector3;
-use reckon::methods::{Exact, ExplicitEuler};
-use reckon::models::{bicycle, unicycle};
-use reckon::{Options, Problem};
+use crate::methods::{Exact, ExplicitEuler};
+use crate::models::{bicycle, unicycle};
+use crate::{Options, Problem};
 use std::path::Path;
 
 /// The pitfalls of textbook versions, each measured.

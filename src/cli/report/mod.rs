@@ -39,7 +39,7 @@ impl Report {
         self.figures += 1;
         let _ = write!(
             self.html,
-            "<figure><img src=\"{file}\" alt=\"{}\"><figcaption>{caption}</figcaption></figure>",
+            "<figure><a href=\"{file}\"><img src=\"{file}\" alt=\"{}\"></a><figcaption>{caption}</figcaption></figure>",
             plot.title
         );
         Ok(())

@@ -4,7 +4,6 @@
 use super::plot::{Plot, Series, Style, write_svg};
 use super::registry::lookup;
 use super::studies::{history_plot, prepare, stability_files};
-use nalgebra::{SVector, Vector3, vector};
 use crate::kalman::confidence_ellipse;
 use crate::kalman::slam;
 use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler};
@@ -14,6 +13,7 @@ use crate::reckoning::encoders::{DiffDrive, Update, odometry};
 use crate::reckoning::errors::{EncoderErrors, simulate};
 use crate::studies::MethodKind;
 use crate::{Controls, Options, Problem, Solution, System};
+use nalgebra::{SVector, Vector3, vector};
 use std::error::Error;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -474,16 +474,20 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     let mut rows = Vec::new();
     for m in [MethodKind::Euler, MethodKind::ImplicitEuler, MethodKind::Rk45] {
         let steps = p.default_steps(m);
-        let s = p.convergence(&[m], &steps)?;
+        let s = p.convergence(&[m], &steps, crate::studies::convergence::DEFAULT_MAX_STEPS)?;
         let fit = &s.fits[0];
+        let order = match fit.order_final {
+            Some(o) => format!("{o:.3}"),
+            None => "not asymptotic".to_string(),
+        };
         plot = plot.with(Series::new(
-            format!("{} (slope {:.2})", m.name(), fit.order_final.unwrap_or(f64::NAN)),
+            format!("{} (slope {order})", m.name()),
             s.rows.iter().map(|r| (r.h, r.final_error)).collect(),
             Style::LinePoints,
         ));
         rows.push(vec![
             m.name().to_string(),
-            format!("{:.3}", fit.order_final.unwrap_or(f64::NAN)),
+            order,
             format!("{}", fit.theory.unwrap_or(f64::NAN)),
         ]);
     }

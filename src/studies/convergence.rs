@@ -144,14 +144,14 @@ fn asymptotic(steps: &[f64], errors: &[f64], size: f64) -> std::result::Result<(
     }
     let mut pairs: Vec<(f64, f64)> = steps.iter().copied().zip(errors.iter().copied()).collect();
     pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
-    if let Some(w) = pairs.windows(2).find(|w| !(w[1].1 < w[0].1)) {
+    if let Some(w) = pairs.windows(2).find(|w| w[1].1 >= w[0].1) {
         return Err(format!(
             "errors do not decrease with h ({:.3e} at h = {:e}, {:.3e} at h = {:e})",
             w[0].1, w[0].0, w[1].1, w[1].0
         ));
     }
     let worst = pairs[0].1;
-    if !(worst < ASYMPTOTIC_FRACTION * size) {
+    if worst.partial_cmp(&(ASYMPTOTIC_FRACTION * size)) != Some(std::cmp::Ordering::Less) {
         return Err(format!(
             "errors up to {worst:.3e} are of the size of the solution ({size:.3e})"
         ));

@@ -272,7 +272,7 @@ pub fn summarize(pts: &[StiffnessPoint]) -> IndexSummary {
         .collect();
     v.sort_by(|a, b| a.0.total_cmp(&b.0));
     let total = v.iter().fold(0.0, |a, p| a + p.1);
-    if v.is_empty() || !(total > 0.0) {
+    if v.is_empty() || total <= 0.0 {
         return IndexSummary {
             max: f64::NAN,
             median: f64::NAN,

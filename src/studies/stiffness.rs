@@ -113,7 +113,7 @@ where
 /// Eigenvalues of a square matrix, from faer's Hessenberg–Schur QR iteration, which
 /// stops after a bounded number of sweeps. `t` only labels the errors: a non-finite
 /// entry gives [`Error::NonFinite`] (quantity Jacobian), an iteration that does not
-/// converge gives [`Error::InvalidInput`] (`what: "eigenvalues"`), never a hang.
+/// converge gives [`Error::NoConvergence`] (`what: "eigenvalues"`), never a hang.
 ///
 /// ```
 /// use reckon::studies::stiffness::eigenvalues;
@@ -140,12 +140,9 @@ pub fn eigenvalues(t: f64, m: &DMatrix<f64>) -> Result<Vec<Complex64>> {
         });
     }
     let fm = faer::MatRef::from_column_major_slice(m.as_slice(), n, n);
-    let ev = fm.eigenvalues().map_err(|_| {
-        Error::invalid(
-            "eigenvalues",
-            format!("the eigenvalue iteration on the {n}x{n} Jacobian did not converge at t = {t}"),
-        )
-    })?;
+    let ev = fm
+        .eigenvalues()
+        .map_err(|_| Error::NoConvergence { what: "eigenvalues", t })?;
     Ok(ev.into_iter().map(|z| Complex64::new(z.re, z.im)).collect())
 }
 

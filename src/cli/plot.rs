@@ -257,7 +257,22 @@ pub fn write_svg(plot: &Plot, path: &Path, size: (u32, u32)) -> Result<Layout, B
     Ok(layout)
 }
 
-/// Render `plot` to an SVG string and its layout.
+/// Render `plot` to an SVG string and its layout: where the plot area, the legend and
+/// every plotted point landed, in SVG pixels. The legend goes to the first position inside
+/// the plot area that meets no point or line, else below it (the SVG grows taller).
+///
+/// ```
+/// use reckon::cli::plot::{render, Plot, Series, Style};
+/// // a diagonal through the upper-right corner, where the legend would go by default
+/// let plot = Plot::new("diagonal", "x", "y")
+///     .with(Series::new("exact flow", (0..=100).map(|k| (k as f64, k as f64)).collect(), Style::Line));
+/// let (svg, layout) = render(&plot, (820, 560)).unwrap();
+/// assert!(svg.contains("<svg"));
+/// let lg = layout.legend.unwrap();
+/// let covered = |p: &(i32, i32)| p.0 >= lg[0] && p.0 <= lg[2] && p.1 >= lg[1] && p.1 <= lg[3];
+/// assert!(!layout.series[0].points.iter().any(covered));
+/// assert!(!layout.legend_outside && layout.series[0].points.len() > 50);
+/// ```
 pub fn render(plot: &Plot, size: (u32, u32)) -> Result<(String, Layout), Box<dyn Error>> {
     // first pass: is there a free position inside the plot area?
     let (svg, layout) = render_with(plot, size, 0)?;
@@ -425,12 +440,17 @@ where
         }
         chart.draw_series(markers.iter().map(|p| Circle::new(*p, MARKER_R, color.filled())))?;
         let px = |v: &[(f64, f64)]| v.iter().map(|p| chart.backend_coord(p)).collect::<Vec<_>>();
+        let mut points = px(&pts);
+        if s.style != Style::Segments {
+            // consecutive points on the same pixel add nothing to the record
+            points.dedup();
+        }
         series_layout.push(SeriesLayout {
             label: s.label.clone(),
             joined,
             pairs: s.style == Style::Segments,
             marker_radius: if dots || !markers.is_empty() { MARKER_R } else { 0 },
-            points: px(&pts),
+            points,
             markers: px(&markers),
         });
     }
@@ -553,7 +573,7 @@ fn covers(rect: &[i32; 4], series: &[SeriesLayout]) -> bool {
 }
 
 /// Whether the segment a–b meets the rectangle `[l, t, r, b]` (Liang–Barsky clipping).
-pub fn segment_meets(a: (i32, i32), b: (i32, i32), rect: &[i32; 4]) -> bool {
+fn segment_meets(a: (i32, i32), b: (i32, i32), rect: &[i32; 4]) -> bool {
     let (x0, y0) = (a.0 as f64, a.1 as f64);
     let (dx, dy) = (b.0 as f64 - x0, b.1 as f64 - y0);
     let (mut t0, mut t1) = (0.0f64, 1.0f64);

@@ -1,5 +1,7 @@
 //! `reckon demo`: the classic dead-reckoning scenarios with every method, a convergence
 //! and a stiffness study, and the pitfalls of textbook versions, as `report/index.html`.
+//! Next to the page and its SVG figures, `figures.json` records where each figure's legend
+//! and plotted points landed (SVG pixels, [`super::plot::Layout`]): the legend covers none.
 
 use super::plot::{Layout, Plot, Series, Style, write_svg};
 use super::registry::lookup;

@@ -1,12 +1,11 @@
 //! `reckon simulate`: a vehicle model driven by a controls CSV, with any method.
 
-use super::csvio::{open_output, read_table, write_row};
-use nalgebra::{Const, SVector};
+use super::csvio::{RowWriter, check_not_input, read_table};
 use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
 use crate::models::{bicycle, carlike, unicycle};
 use crate::{Controls, Options, Problem, System};
+use nalgebra::{Const, SVector};
 use std::error::Error;
-use std::io::Write;
 use std::path::PathBuf;
 
 /// Vehicle models the command knows.
@@ -48,13 +47,13 @@ pub struct SimulateArgs {
     pub method: MethodName,
     /// Fixed step of euler and implicit-euler (default: one step per control interval);
     /// largest step of rk45.
-    #[arg(long, allow_negative_numbers = true)]
+    #[arg(long, allow_hyphen_values = true)]
     pub dt: Option<f64>,
     /// Relative tolerance (rk45; Newton's scale for implicit-euler).
-    #[arg(long, default_value_t = 1e-6, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1e-6, allow_hyphen_values = true)]
     pub rtol: f64,
     /// Absolute tolerance.
-    #[arg(long, default_value_t = 1e-9, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1e-9, allow_hyphen_values = true)]
     pub atol: f64,
     /// Model parameter NAME=VALUE (wheelbase).
     #[arg(long = "param", value_name = "NAME=VALUE")]
@@ -110,7 +109,8 @@ pub fn run(args: &SimulateArgs) -> Result<(), Box<dyn Error>> {
         ModelName::Carlike => &["t", "v", "steer_rate"],
     };
     let table = read_table(&args.controls, inputs)?;
-    let mut out = open_output(args.out.as_deref())?;
+    check_not_input(args.out.as_deref(), &args.controls)?;
+    let mut out = RowWriter::open(args.out.as_deref())?;
     let result = if table.rows.len() < 2 {
         match &table.error {
             Some(_) => Ok(()),
@@ -164,7 +164,7 @@ fn model_run<const N: usize>(
     sys: impl System<Const<N>>,
     flow: impl Flow<Const<N>>,
     controls: Controls,
-    out: &mut dyn Write,
+    out: &mut RowWriter,
     header: &str,
 ) -> Result<(), Box<dyn Error>>
 where
@@ -187,7 +187,7 @@ where
     let problem = Problem::new(&sys, x0, (t0, t_end)).controls(controls);
     let base = Options::default().rtol(args.rtol).atol(args.atol).dense(false);
     let span = t_end - t0;
-    writeln!(out, "{header}")?;
+    out.line(header)?;
     match args.method {
         MethodName::Euler => stream(&problem, ExplicitEuler, &base.fixed(args.dt.unwrap_or(span)), out),
         MethodName::ImplicitEuler => stream(
@@ -211,12 +211,12 @@ fn stream<const N: usize, S: System<Const<N>>, M: Method<Const<N>>>(
     problem: &Problem<'_, Const<N>, S>,
     method: M,
     opts: &Options,
-    out: &mut dyn Write,
+    out: &mut RowWriter,
 ) -> Result<(), Box<dyn Error>> {
     let mut it = problem.integrator(method, opts)?;
-    write_row(out, it.t(), it.x().as_slice())?;
+    out.row(it.t(), it.x().as_slice())?;
     while let Some(t) = it.step()? {
-        write_row(out, t, it.x().as_slice())?;
+        out.row(t, it.x().as_slice())?;
     }
     Ok(())
 }

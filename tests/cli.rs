@@ -660,7 +660,7 @@ fn errors_are_short() {
     // numbers in messages: 1e308, not 309 digits
     let c = file("big.csv", "t,v,omega\n1e308,1,0\n1e307,1,0\n");
     let o = sim_exact(&c, &[]);
-    fails_with(&o, "line 3: time does not increase: 1e307 after 1e308");
+    fails_with(&o, "line 3: time does not increase: 1e+307 after 1e+308");
     let e = file("big2.csv", "t,left,right\n0,0,0\n0.1,1e308,-1e308\n");
     let o = reckon(&[
         "odometry",
@@ -673,7 +673,7 @@ fn errors_are_short() {
         "--pulses-per-rev",
         "1",
     ]);
-    fails_with(&o, "pulses 1e308, -1e308 overflow with this geometry");
+    fails_with(&o, "pulses 1e+308, -1e+308 overflow with this geometry");
 }
 
 /// Issue 7.9: `--out` naming the input refuses before touching it.

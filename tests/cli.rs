@@ -816,3 +816,109 @@ fn odometry_cumulative_counts() {
     let c = odo(&file("arc-inc.csv", &arc_inc), &[]);
     assert!(c.stderr.is_empty(), "{}", String::from_utf8_lossy(&c.stderr));
 }
+
+/// Issue 7.1: a log longer than the old whole-run step limit (100 000) streams through, and
+/// its rows match the library's `Problem::solve` bit for bit.
+#[test]
+fn long_log_streams_and_matches_the_library() {
+    let n = 120_000;
+    let mut text = String::from("t,v,omega\n");
+    let (mut times, mut values) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for k in 0..n {
+        let t = 1.7e9 + k as f64 * 0.01; // epoch seconds
+        let (v, w) = (1.0 + (k % 7) as f64 * 0.1, 0.3 * ((k % 1000) as f64 / 500.0 - 1.0));
+        text.push_str(&format!("{t},{v},{w}\n"));
+        times.push(t);
+        values.push(vec![v, w]);
+    }
+    let c = file("long.csv", &text);
+    let out = dir().join("long-out.csv");
+    let o = sim_exact(&c, &["--out", p(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (header, got) = rows(&std::fs::read(&out).unwrap());
+    assert_eq!(header, "t,x,y,theta");
+    let t_end = *times.last().unwrap();
+    let sol = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (times[0], t_end))
+        .controls(Controls::new(times, values).unwrap())
+        .solve(Exact::new(unicycle::flow), &Options::default().dense(false))
+        .unwrap();
+    assert_eq!(got.len(), n);
+    assert_eq!(sol.t.len(), n);
+    for (row, (t, x)) in got.iter().zip(sol.t.iter().zip(&sol.x)) {
+        assert_eq!(row[0].to_bits(), t.to_bits());
+        for i in 0..3 {
+            assert_eq!(row[i + 1].to_bits(), x[i].to_bits(), "t = {t}");
+        }
+    }
+}
+
+/// Issue 7.1: `--max-steps` limits the attempts per control interval; rows before the
+/// failing interval are written and the error names the row that ends it.
+#[test]
+fn max_steps_per_interval() {
+    let c = file("steps.csv", "t,v,omega\n0,1,0\n1,1,0.5\n11,1,0\n12,0,0\n");
+    let euler = |extra: &[&str]| {
+        let mut a = vec![
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            p(&c),
+            "--method",
+            "euler",
+            "--dt",
+            "0.1",
+        ];
+        a.extend_from_slice(extra);
+        reckon(&a)
+    };
+    // 10 steps fit the first interval, the second needs 100
+    let got = fails(
+        &euler(&["--max-steps", "50"]),
+        "line 4: integrating up to t = 11: step limit of 50 steps",
+    );
+    assert_eq!(
+        got.len(),
+        1 + 10 + 50,
+        "start, the first interval, then the attempts that fit"
+    );
+    assert_eq!(got[10][0], 1.0);
+    let o = euler(&["--max-steps", "100"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(rows(&o.stdout).1.len(), 1 + 10 + 100 + 10);
+    fails_with(&euler(&["--max-steps", "0"]), "max_steps: must be at least 1");
+    assert!(
+        euler(&["--max-steps", "0"]).stdout.is_empty(),
+        "refused before any output"
+    );
+}
+
+/// Issue 7.9: the first error that happens is reported: an interval that fails before a
+/// bad row, or a bad row before the interval that would fail.
+#[test]
+fn first_error_is_reported() {
+    let run = |c: &Path| {
+        reckon(&[
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            p(c),
+            "--method",
+            "euler",
+            "--dt",
+            "0.1",
+            "--max-steps",
+            "20",
+        ])
+    };
+    let c = file("first1.csv", "t,v,omega\n0,1,0\n5,1,0\n6,abc,0\n");
+    fails(&run(&c), "line 3: integrating up to t = 5: step limit of 20 steps");
+    let c = file("first2.csv", "t,v,omega\n0,1,0\n1,1,0\n2,abc,0\n5,1,0\n");
+    let got = fails(&run(&c), "line 4: column 'v': 'abc' is not a number");
+    assert_eq!(
+        got.last().unwrap()[0],
+        1.0,
+        "the interval before the bad row is written"
+    );
+}

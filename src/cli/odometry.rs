@@ -1,7 +1,7 @@
 //! `reckon odometry`: dead-reckon a differential-drive robot from wheel-encoder counts,
 //! streamed row by row (constant memory for a log of any length).
 
-use super::csvio::{RowReader, RowWriter, check_not_input, num};
+use super::csvio::{RowWriter, Rows, check_not_input, num};
 use crate::reckoning::encoders::{DiffDrive, Update, advance};
 use std::error::Error;
 use std::path::PathBuf;
@@ -102,7 +102,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 pub fn run(args: &OdometryArgs) -> Result<(), Box<dyn Error>> {
     let robot = DiffDrive::new(args.wheel_diameter, args.wheel_separation, args.pulses_per_rev)?;
     let rule: Update = args.update.parse()?;
-    let mut rdr = RowReader::open(&args.encoders, &["t", "left", "right"])?;
+    let mut rdr = Rows::open(&args.encoders, &["t", "left", "right"])?;
     check_not_input(args.out.as_deref(), &args.encoders)?;
     let mut out = RowWriter::open(args.out.as_deref())?;
     out.line("t,x,y,theta")?;
@@ -115,7 +115,7 @@ fn integrate(
     args: &OdometryArgs,
     robot: &DiffDrive,
     rule: Update,
-    rdr: &mut RowReader<std::fs::File>,
+    rdr: &mut Rows,
     out: &mut RowWriter,
 ) -> Result<(), Box<dyn Error>> {
     let mut pose = nalgebra::Vector3::zeros();

@@ -1,6 +1,6 @@
 //! `reckon simulate`: a vehicle model driven by a controls CSV, with any method.
 
-use super::csvio::{RowReader, RowWriter, check_not_input, num};
+use super::csvio::{RowWriter, Rows, check_not_input, num};
 use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
 use crate::models::{bicycle, carlike, unicycle};
 use crate::{Options, Problem, System};
@@ -117,7 +117,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Box<dyn Error>> {
         ModelName::Bicycle => &["t", "v", "steer"],
         ModelName::Carlike => &["t", "v", "steer_rate"],
     };
-    let mut rdr = RowReader::open(&args.controls, inputs)?;
+    let mut rdr = Rows::open(&args.controls, inputs)?;
     check_not_input(args.out.as_deref(), &args.controls)?;
     let mut out = RowWriter::open(args.out.as_deref())?;
     let result = match args.model {
@@ -150,7 +150,7 @@ pub fn run(args: &SimulateArgs) -> Result<(), Box<dyn Error>> {
     result
 }
 
-type ControlRows = RowReader<std::fs::File>;
+type ControlRows = Rows;
 
 fn model_run<const N: usize>(
     args: &SimulateArgs,

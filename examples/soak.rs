@@ -1,7 +1,8 @@
 //! Soak test of the streaming commands: writes a long controls log and a long encoder log
 //! (10⁷ rows by default) to temporary files, runs `reckon simulate --method exact --model
-//! unicycle` and `reckon odometry` on them in-process with `--out` to a file, and prints
-//! rows per second and the peak resident memory of each run (targets: under 50 MiB, at
+//! unicycle` and `reckon odometry` on them (each in a child process that calls
+//! `reckon::cli::run`, with `--out` to a file), and prints rows per second of wall time and
+//! of CPU time and the peak resident memory of each run (targets: under 50 MiB, at
 //! least 5 million rows/s for simulate).
 //!
 //! ```sh
@@ -45,6 +46,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     w.flush()?;
     drop(w);
     let size = |p: &Path| std::fs::metadata(p).map(|m| m.len() as f64 / 1e6).unwrap_or(0.0);
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "load average {} on {} cores",
+        load.split_whitespace().next().unwrap_or("?"),
+        std::thread::available_parallelism().map_or(0, |n| n.get())
+    );
     println!(
         "{rows} rows: controls {:.0} MB, encoders {:.0} MB",
         size(&controls),
@@ -97,11 +104,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .output()?;
         let secs = start.elapsed().as_secs_f64();
         let report = String::from_utf8_lossy(&child.stdout);
-        let peak: f64 = report.trim().parse().unwrap_or(f64::NAN);
+        let mut fields = report.split_whitespace().map(|v| v.parse::<f64>().unwrap_or(f64::NAN));
+        let peak = fields.next().unwrap_or(f64::NAN);
+        let cpu = fields.next().unwrap_or(f64::NAN);
         let err = String::from_utf8_lossy(&child.stderr);
         println!(
-            "reckon {name}: {secs:.2} s, {:.2} M rows/s, peak RSS {:.1} MiB, output {:.0} MB{}",
+            "reckon {name}: {secs:.2} s, {:.2} M rows/s ({cpu:.2} CPU-s on all threads: {:.2} M rows per CPU-s), peak RSS {:.1} MiB, output {:.0} MB{}",
             rows as f64 / secs / 1e6,
+            rows as f64 / cpu / 1e6,
             peak / 1024.0,
             size(&out),
             if child.status.success() {
@@ -119,11 +129,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-/// The child: run one command in-process, print its peak RSS in KiB on stdout.
+/// The child: run one command in-process, print its peak RSS in KiB and its CPU time in
+/// seconds on stdout.
 fn child(argv: Vec<String>) -> Result<(), Box<dyn std::error::Error>> {
     let r = reckon::cli::run(argv);
-    println!("{}", peak_kib());
+    println!("{} {}", peak_kib(), cpu_seconds());
     r
+}
+
+/// User plus system time of this process (`/proc/self/stat`, in clock ticks of 1/100 s).
+fn cpu_seconds() -> f64 {
+    std::fs::read_to_string("/proc/self/stat")
+        .ok()
+        .and_then(|s| {
+            // fields after the command name, which is in parentheses
+            let rest = s.rsplit_once(')')?.1;
+            let f: Vec<&str> = rest.split_whitespace().collect();
+            let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+            Some(ticks / 100.0)
+        })
+        .unwrap_or(f64::NAN)
 }
 
 /// Peak resident set size (`VmHWM`) in KiB, 0 where /proc is not available.

@@ -922,3 +922,19 @@ fn first_error_is_reported() {
         "the interval before the bad row is written"
     );
 }
+
+/// A write error is reported once, clearly (here: a full disk).
+#[test]
+fn write_errors_are_reported() {
+    if !Path::new("/dev/full").exists() {
+        return;
+    }
+    let mut text = String::from("t,v,omega\n");
+    for k in 0..20_000 {
+        text.push_str(&format!("{k},1,0.1\n"));
+    }
+    let c = file("full.csv", &text);
+    fails_with(&sim_exact(&c, &["--out", "/dev/full"]), "No space left on device");
+    let e = file("full-enc.csv", "t,left,right\n0,0,0\n1,1,1\n");
+    fails_with(&odo(&e, &["--out", "/dev/full"]), "No space left on device");
+}

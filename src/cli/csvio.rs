@@ -123,7 +123,7 @@ impl<R: Read> RowReader<R> {
             .byte_headers()
             .map_err(|e| fail(format!("cannot read the header: {}", csv_reason(&e))))?
             .clone();
-        let found: Vec<String> = header.iter().map(|h| brief(h)).collect();
+        let found: Vec<String> = header.iter().map(brief).collect();
         let mut index = Vec::with_capacity(columns.len());
         for c in columns {
             match header.iter().position(|h| h == c.as_bytes()) {
@@ -582,7 +582,8 @@ impl RowWriter {
                 Ok(r) => r,
                 Err(_) => Err(std::io::Error::other("the writing thread panicked")),
             },
-            None => Err(std::io::Error::other("output already closed")),
+            // closed after an error that was returned then
+            None => Ok(()),
         }
     }
 

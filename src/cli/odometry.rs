@@ -107,8 +107,10 @@ pub fn run(args: &OdometryArgs) -> Result<(), Box<dyn Error>> {
     let mut out = RowWriter::open(args.out.as_deref())?;
     out.line("t,x,y,theta")?;
     let result = integrate(args, &robot, rule, &mut rdr, &mut out);
-    out.flush()?;
-    result
+    // everything computed is written; the first error (a row, a step or a write) is reported
+    let written = out.flush();
+    result?;
+    Ok(written?)
 }
 
 fn integrate(

@@ -146,8 +146,10 @@ pub fn run(args: &SimulateArgs) -> Result<(), Box<dyn Error>> {
             "t,x,y,theta,steer",
         ),
     };
-    out.flush()?;
-    result
+    // everything computed is written; the first error (a row, a step or a write) is reported
+    let written = out.flush();
+    result?;
+    Ok(written?)
 }
 
 type ControlRows = Rows;

@@ -47,7 +47,7 @@ pub struct OdometryArgs {
     /// Pose update rule.
     #[arg(long, default_value = "midpoint", value_parser = ["midpoint", "exact", "euler"])]
     pub update: String,
-    /// Output CSV (default: standard output).
+    /// Output CSV (default: standard output); may not be the encoders file.
     #[arg(long)]
     pub out: Option<PathBuf>,
 }

@@ -89,14 +89,7 @@ fn bench_problem<const N: usize, H: Fn(f64, &[f64; N]) -> [f64; N] + Copy>(
 }
 
 fn rk45(c: &mut Criterion) {
-    bench_problem(
-        c,
-        "lorenz",
-        lorenz(),
-        handwritten::lorenz,
-        [1.0, 1.0, 1.0],
-        20.0,
-    );
+    bench_problem(c, "lorenz", lorenz(), handwritten::lorenz, [1.0, 1.0, 1.0], 20.0);
     bench_problem(
         c,
         "arenstorf",
@@ -105,14 +98,7 @@ fn rk45(c: &mut Criterion) {
         ARENSTORF_Y0,
         ARENSTORF_T,
     );
-    bench_problem(
-        c,
-        "vdp1",
-        van_der_pol(1.0),
-        handwritten::van_der_pol,
-        [2.0, 0.0],
-        20.0,
-    );
+    bench_problem(c, "vdp1", van_der_pol(1.0), handwritten::van_der_pol, [2.0, 0.0], 20.0);
 }
 
 /// The model call alone: a `model!` closure through `System::rhs` vs the same body as a

@@ -37,8 +37,24 @@ fn main() {
     let (prob, who, tol, reps) = (&a[1], &a[2], a[3].parse().unwrap(), a[4].parse().unwrap());
     let steps = match prob.as_str() {
         "lorenz" => run(who, lorenz(), handwritten::lorenz, [1.0, 1.0, 1.0], 20.0, tol, reps),
-        "arenstorf" => run(who, arenstorf(), handwritten::arenstorf, ARENSTORF_Y0, ARENSTORF_T, tol, reps),
-        _ => run(who, van_der_pol(1.0), handwritten::van_der_pol, [2.0, 0.0], 20.0, tol, reps),
+        "arenstorf" => run(
+            who,
+            arenstorf(),
+            handwritten::arenstorf,
+            ARENSTORF_Y0,
+            ARENSTORF_T,
+            tol,
+            reps,
+        ),
+        _ => run(
+            who,
+            van_der_pol(1.0),
+            handwritten::van_der_pol,
+            [2.0, 0.0],
+            20.0,
+            tol,
+            reps,
+        ),
     };
     println!("{steps}");
 }

@@ -4,6 +4,7 @@
 use super::csvio::{RowWriter, Rows, check_not_input, num};
 use crate::reckoning::encoders::{DiffDrive, Update, advance};
 use std::error::Error;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// What the left and right columns hold.
@@ -128,7 +129,9 @@ fn integrate(
         if !*judged {
             *judged = true;
             if looks_cumulative(window) {
-                eprintln!(
+                // a closed stderr must not panic: the warning is then lost
+                let _ = writeln!(
+                    std::io::stderr(),
                     "reckon: warning: {}: the left/right columns look like running counts \
                      (monotone, changes small against the values), not increments: if so, use --counts cumulative",
                     args.encoders.display()

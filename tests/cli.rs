@@ -313,7 +313,23 @@ fn bad_simulate_inputs() {
     let c = file("ok.csv", UNICYCLE);
     fails(&sim(&c, &["--x0", "1,2"]), "--x0 has 2 values");
     fails(&sim(&c, &["--param", "wheelbase=1"]), "no parameter 'wheelbase'");
-    fails(&sim(&c, &["--dt", "0.1"]), "does not apply to the exact method");
+    // --dt refines the exact flow's grid: more rows, the same arcs to rounding
+    let fine = sim(&c, &["--dt", "0.1"]);
+    assert!(fine.status.success(), "{}", String::from_utf8_lossy(&fine.stderr));
+    let (_, fine) = rows(&fine.stdout);
+    let (_, coarse) = rows(&sim(&c, &[]).stdout);
+    assert_eq!(coarse.len(), 4);
+    assert_eq!(
+        fine.len(),
+        41,
+        "0, 0.1, …, 4 with the breakpoints 1 and 2.5 on the grid"
+    );
+    for row in &coarse {
+        let f = fine.iter().find(|r| r[0] == row[0]).unwrap();
+        for i in 1..4 {
+            assert!((f[i] - row[i]).abs() < 1e-13, "{f:?} vs {row:?}");
+        }
+    }
     fails(
         &reckon(&[
             "simulate",

@@ -104,10 +104,10 @@ fn parse_params(model: ModelName, params: &[String]) -> Result<f64, Box<dyn Erro
 /// interval that fails to integrate) is the one reported.
 pub fn run(args: &SimulateArgs) -> Result<(), Box<dyn Error>> {
     let wheelbase = parse_params(args.model, &args.params)?;
-    if let Some(dt) = args.dt {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(format!("--dt must be finite and positive, got {}", num(dt)).into());
-        }
+    if let Some(dt) = args.dt
+        && !(dt.is_finite() && dt > 0.0)
+    {
+        return Err(format!("--dt must be finite and positive, got {}", num(dt)).into());
     }
     let inputs: &[&str] = match args.model {
         ModelName::Unicycle => &["t", "v", "omega"],

@@ -305,7 +305,7 @@ pub fn stability_files(dir: &Path) -> Res<Vec<(f64, f64, f64)>> {
     let mut plot = Plot::new("Linear stability regions |R(hλ)| ≤ 1", "Re(hλ)", "Im(hλ)").equal();
     let mut csv = Vec::new();
     for (m, label) in methods {
-        let segs = boundary(m, (-4.5, 3.0), (-3.8, 3.8), 241);
+        let segs = boundary(m, (-4.5, 2.5), (-4.4, 4.4), 281);
         for s in &segs {
             csv.push(format!("{m:?},{},{},{},{}", s[0].0, s[0].1, s[1].0, s[1].1));
         }

@@ -48,7 +48,7 @@ impl Tolerance {
         if let Some(bad) = v.iter().find(|a| !(a.is_finite() && **a >= 0.0)) {
             return Err(Error::invalid(
                 what,
-                format!("must be finite and non-negative, got {bad}"),
+                format!("must be finite and non-negative, got {}", crate::error::Brief(*bad)),
             ));
         }
         Ok(v)
@@ -205,7 +205,8 @@ where
         dnf += (f0[i] / sk).powi(2);
         dny += (x0[i] / sk).powi(2);
     }
-    let mut h = if dnf <= 1e-10 || dny <= 1e-10 {
+    // (tolerances near 1e-160 overflow the squares: fall back as for a zero norm)
+    let mut h = if dnf <= 1e-10 || dny <= 1e-10 || !(dny / dnf).is_finite() {
         1e-6
     } else {
         0.01 * (dny / dnf).sqrt()

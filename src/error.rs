@@ -37,7 +37,7 @@ impl std::fmt::Display for Quantity {
 #[non_exhaustive]
 pub enum Error {
     /// The model returned (or a step produced) NaN or ±∞.
-    #[error("non-finite {quantity} (component {component}) at t = {t}")]
+    #[error("non-finite {quantity} (component {component}) at t = {}", Brief(*.t))]
     NonFinite {
         /// Time at which the value was evaluated.
         t: f64,
@@ -49,7 +49,9 @@ pub enum Error {
     /// Newton's iteration for an implicit step did not converge, even with a fresh
     /// Jacobian and after shrinking the step.
     #[error(
-        "Newton iteration diverged at t = {t} with h = {h} after {iterations} iterations (scaled residual {residual:e})"
+        "Newton iteration diverged at t = {} with h = {} after {iterations} iterations (scaled residual {residual:e})",
+        Brief(*.t),
+        Brief(*.h)
     )]
     NewtonDiverged {
         /// Start of the failed step.
@@ -62,7 +64,7 @@ pub enum Error {
         residual: f64,
     },
     /// The iteration matrix `I − h·J` could not be factorised.
-    #[error("singular iteration matrix I - h*J at t = {t} with h = {h}")]
+    #[error("singular iteration matrix I - h*J at t = {} with h = {}", Brief(*.t), Brief(*.h))]
     SingularMatrix {
         /// Start of the step.
         t: f64,
@@ -70,15 +72,15 @@ pub enum Error {
         h: f64,
     },
     /// The step size fell below what floating point can resolve at `t`.
-    #[error("step size underflow at t = {t}: h = {h:e}")]
+    #[error("step size underflow at t = {}: h = {:e}", Brief(*.t), .h)]
     StepSizeUnderflow {
         /// Time reached.
         t: f64,
         /// Step size that was too small.
         h: f64,
     },
-    /// The step limit (`Options::max_steps`) was reached before `t_end`.
-    #[error("step limit of {steps} steps reached at t = {t}")]
+    /// The step limit (`Options::max_steps`, counted between two stops) was reached.
+    #[error("step limit of {steps} steps between two stops reached at t = {}", Brief(*.t))]
     MaxSteps {
         /// Time reached.
         t: f64,
@@ -95,7 +97,7 @@ pub enum Error {
     },
     /// Euler angles were asked of an attitude at pitch ±90°, where roll and yaw are not
     /// separable (gimbal lock).
-    #[error("Euler angles are singular at t = {t}: pitch = {pitch} rad (±90°)")]
+    #[error("Euler angles are singular at t = {}: pitch = {} rad (±90°)", Brief(*.t), Brief(*.pitch))]
     PitchSingularity {
         /// Time of the attitude.
         t: f64,
@@ -109,8 +111,17 @@ pub enum Error {
         /// Which matrix.
         what: &'static str,
     },
+    /// An event function returned NaN, so whether it changed sign is unknown (a pole,
+    /// where it jumps through ±∞, is a sign change; NaN is not).
+    #[error("event function {index} is NaN at t = {}", Brief(*.t))]
+    EventNaN {
+        /// Index of the event function.
+        index: usize,
+        /// Time at which it was evaluated.
+        t: f64,
+    },
     /// The root finder could not locate an event inside a step.
-    #[error("event {index} could not be located between t = {t0} and t = {t1}: {reason}")]
+    #[error("event {index} could not be located between t = {} and t = {}: {reason}", Brief(*.t0), Brief(*.t1))]
     EventLocation {
         /// Index of the event function.
         index: usize,
@@ -135,3 +146,25 @@ impl Error {
 
 /// Result alias used throughout the crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// A number as messages print it: the shortest text that reads back to the same value,
+/// switching to scientific notation when that is shorter (`1e308`, not 309 digits).
+///
+/// ```
+/// use reckon::error::Brief;
+/// assert_eq!(Brief(1e308).to_string(), "1e308");
+/// assert_eq!(Brief(0.25).to_string(), "0.25");
+/// assert_eq!(Brief(1.7e12).to_string(), "1.7e12");
+/// assert_eq!(Brief(1700000000.25).to_string(), "1700000000.25");
+/// assert_eq!(Brief(1e-300).to_string(), "1e-300");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Brief(pub f64);
+
+impl std::fmt::Display for Brief {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let plain = format!("{}", self.0);
+        let sci = format!("{:e}", self.0);
+        f.write_str(if plain.len() <= sci.len() + 4 { &plain } else { &sci })
+    }
+}

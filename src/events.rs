@@ -127,7 +127,9 @@ where
         TerminationStatus::Terminated(TerminationReason::SolverConverged) => {}
         other => return Err(fail(format!("root finder stopped: {other:?}"))),
     }
-    match res.state.best_param {
+    // the last iterate, where the bracket closed: `best_param` is the smallest |g| seen,
+    // which at a pole (a sign change through ±∞) is an end of the step, not the crossing
+    match res.state.param {
         Some(t) if t.is_finite() => Ok(t),
         _ => Err(fail("no finite root returned".into())),
     }

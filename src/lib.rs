@@ -17,6 +17,7 @@ pub mod linalg;
 pub mod methods;
 pub mod models;
 pub mod options;
+pub mod prelude;
 pub mod problem;
 pub mod problems;
 pub mod reckoning;
@@ -30,6 +31,23 @@ pub use events::{Direction, Event};
 pub use integrator::Integrator;
 pub use nalgebra;
 pub use num_dual;
+
+#[doc(hidden)]
+pub mod __private {
+    pub use num_traits::Signed;
+
+    /// `vector!`: an array as a column vector.
+    pub fn vector_from<T: nalgebra::Scalar, const N: usize>(a: [T; N]) -> nalgebra::SVector<T, N> {
+        nalgebra::SVector::from(a)
+    }
+
+    /// `matrix!`: rows as a matrix.
+    pub fn matrix_from_rows<T: nalgebra::Scalar, const R: usize, const C: usize>(
+        rows: [[T; C]; R],
+    ) -> nalgebra::SMatrix<T, R, C> {
+        nalgebra::SMatrix::from_fn(|i, j| rows[i][j].clone())
+    }
+}
 pub use options::{Options, StepSize};
 pub use problem::Problem;
 pub use solution::{Solution, Stats};

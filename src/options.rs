@@ -34,7 +34,10 @@ pub struct Options {
     pub h0: Option<f64>,
     /// Largest step magnitude (default ∞).
     pub h_max: f64,
-    /// Limit on step attempts, accepted and rejected (default 100 000, as `dopri5.f`).
+    /// Limit on step attempts, accepted and rejected, between two consecutive stops
+    /// (control breakpoints, [`breakpoints`](Options::breakpoints), `step_until`
+    /// targets, `t_end`): default 100 000, as `dopri5.f` for a problem without
+    /// breakpoints; with a control log the limit scales with its intervals.
     pub max_steps: usize,
     /// Extra times the integrator must land on exactly (besides control breakpoints).
     pub breakpoints: Vec<f64>,
@@ -125,7 +128,7 @@ impl Options {
             if let Some(v) = vals.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
                 return Err(Error::invalid(
                     what,
-                    format!("must be finite and non-negative, got {v}"),
+                    format!("must be finite and non-negative, got {}", crate::error::Brief(*v)),
                 ));
             }
         }
@@ -133,7 +136,10 @@ impl Options {
             if v > 0.0 && !v.is_nan() {
                 Ok(())
             } else {
-                Err(Error::invalid(what, format!("must be positive, got {v}")))
+                Err(Error::invalid(
+                    what,
+                    format!("must be positive, got {}", crate::error::Brief(v)),
+                ))
             }
         };
         if let StepSize::Fixed(h) = self.step {
@@ -153,7 +159,10 @@ impl Options {
             return Err(Error::invalid("stiffness_check", "interval must be at least 1"));
         }
         if let Some(b) = self.breakpoints.iter().find(|b| !b.is_finite()) {
-            return Err(Error::invalid("breakpoints", format!("must be finite, got {b}")));
+            return Err(Error::invalid(
+                "breakpoints",
+                format!("must be finite, got {}", crate::error::Brief(*b)),
+            ));
         }
         Ok(())
     }

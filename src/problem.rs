@@ -12,7 +12,11 @@ use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// An initial-value problem `x' = f(t, x, u)`, `x(t0) = x0`, on `[t0, t_end]`
-/// (`t_end < t0` integrates backward), with optional held inputs and events.
+/// (`t_end < t0` integrates backward; `t_end = ±∞` is open-ended, stepped with
+/// [`Integrator::step_until`]), with optional held inputs and events.
+///
+/// Steps are taken in time measured from `t0`, so epoch timestamps (`t0 = 1.7e9` s or
+/// `1.7e12` ms) cost no accuracy in the step sizes; times are reported as given.
 ///
 /// ```
 /// use reckon::{model, Problem, Options, methods::Dopri5};
@@ -37,6 +41,9 @@ where
     pub t_end: f64,
     /// Inputs held piecewise constant, if the model reads any.
     pub controls: Option<Controls>,
+    /// Inputs held constant from `t0` (instead of a schedule), changed while stepping
+    /// with [`Integrator::set_inputs`].
+    pub held: Option<Vec<f64>>,
     pub(crate) events: Vec<Event<'a, D>>,
 }
 
@@ -52,12 +59,27 @@ where
             t0: span.0,
             t_end: span.1,
             controls: None,
+            held: None,
             events: Vec::new(),
         }
     }
     /// Hold inputs piecewise constant; every control time becomes a breakpoint.
     pub fn controls(mut self, controls: Controls) -> Self {
         self.controls = Some(controls);
+        self
+    }
+    /// Hold `u` from `t0` on, with no schedule: for streaming, where the caller switches
+    /// inputs with [`Integrator::set_inputs`] as they arrive.
+    ///
+    /// ```
+    /// use reckon::{methods::Exact, models::unicycle, Options, Problem};
+    /// use nalgebra::vector;
+    /// let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 3.0)).inputs(vec![2.0, 0.0]);
+    /// let sol = p.solve(Exact::new(unicycle::flow), &Options::default()).unwrap();
+    /// assert_eq!(*sol.last().1, vector![6.0, 0.0, 0.0]);
+    /// ```
+    pub fn inputs(mut self, u: Vec<f64>) -> Self {
+        self.held = Some(u);
         self
     }
     /// Watch for zeros of an event function.

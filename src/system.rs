@@ -160,8 +160,66 @@ where
 /// f.jacobian(0.0, &vector![0.0, 0.0, 0.5], &[2.0, 0.1], &mut j);
 /// assert!((j[(0, 2)] + 2.0 * 0.5f64.sin()).abs() < 1e-15); // ∂ẋ/∂θ = −v sin θ
 /// ```
+///
+/// # Common mistakes, and what they do
+///
+/// `abs()`, `signum()`, `sqrt()`, `powi()`, `sin()`… work on `S` in the body with no import:
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::{vector, Matrix1};
+/// // quadratic drag: v' = −c·v·|v|
+/// let f = model!(|_t, x: [S; 1]| vector![-x[0] * x[0].abs() * 0.5 + x[0].signum() * 0.0]);
+/// let mut j = Matrix1::zeros();
+/// f.jacobian(0.0, &vector![-3.0], &[], &mut j);
+/// assert_eq!(j[(0, 0)], -3.0); // ∂/∂v (−v|v|/2) = −|v|
+/// ```
+///
+/// Helper functions take the scalar as a generic `S: DualNum<Primitive = f64>` (num-dual's trait,
+/// re-exported as `reckon::num_dual::DualNum`), so that both copies can call them:
+///
+/// ```
+/// use reckon::{model, System, num_dual::DualNum};
+/// use nalgebra::{vector, Matrix2};
+/// /// Duffing spring force `k·x + β·x³`.
+/// fn spring<S: DualNum<Primitive = f64>>(x: &S, k: f64, beta: f64) -> S {
+///     x.clone() * k + x.powi(3) * beta
+/// }
+/// let f = model!(|_t, x: [S; 2]| vector![x[1].clone(), -spring(&x[0], 1.0, 0.1)]);
+/// let mut j = Matrix2::zeros();
+/// f.jacobian(0.0, &vector![2.0, 0.0], &[], &mut j);
+/// assert!((j[(1, 0)] + (1.0 + 0.3 * 4.0)).abs() < 1e-15); // −(k + 3βx²)
+/// ```
+///
+/// Writing the state as `[f64; N]` is refused with a message that names the fix
+/// (`S` must be a name the macro can define as `f64` and as a dual number):
+///
+/// ```compile_fail
+/// let f = reckon::model!(|_t, x: [f64; 2]| reckon::vector![x[1], -x[0]]);
+/// ```
+///
+/// A constant on the *left* of a state value, `2.0 * x[0]`, does not compile in the dual
+/// copy: Rust's orphan rule forbids any crate but num-dual to define `f64 × dual`, and the
+/// compiler then lists every `Mul` impl for `f64`. Write `x[0] * 2.0` or
+/// `S::from(2.0) * x[0]`:
+///
+/// ```compile_fail,E0277
+/// let f = reckon::model!(|_t, x: [S; 1]| reckon::vector![2.0 * x[0]]);
+/// ```
+///
+/// ```
+/// let f = reckon::model!(|_t, x: [S; 1]| reckon::vector![S::from(2.0) * x[0] + x[0] * 2.0]);
+/// # let _ = f;
+/// ```
 #[macro_export]
 macro_rules! model {
+    (|$t:tt, $x:ident : [f64; $($rest:tt)*] $($more:tt)*) => {
+        ::core::compile_error!(
+            "model!: the state's scalar must be a type *name* the macro defines twice, not f64: \
+             write `x: [S; N]` (or `[S; Dyn]`) and use `S` in the body (`S::from(2.0)`); \
+             S is f64 for values and a dual number for the Jacobian"
+        )
+    };
     (|$t:tt, $x:ident : [$s:ident; Dyn]| $body:expr) => {
         $crate::model!(@dyn 0, $t, $x, $s, _, $body)
     };
@@ -185,6 +243,8 @@ macro_rules! model {
                   -> $crate::nalgebra::SVector<f64, { $n }> {
                 #[allow(unused_imports)]
                 use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
                 #[allow(dead_code)]
                 type $s = f64;
                 $body
@@ -196,6 +256,8 @@ macro_rules! model {
                   -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n }>, { $n }> {
                 #[allow(unused_imports)]
                 use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
                 #[allow(dead_code)]
                 type $s = $crate::num_dual::DualSVec64<{ $n }>;
                 $body
@@ -209,6 +271,8 @@ macro_rules! model {
             move |$t: f64, $x: &$crate::nalgebra::DVector<f64>, $u: &[f64]| -> $crate::nalgebra::DVector<f64> {
                 #[allow(unused_imports)]
                 use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
                 #[allow(dead_code)]
                 type $s = f64;
                 $body
@@ -220,10 +284,19 @@ macro_rules! model {
                   -> $crate::nalgebra::DVector<$crate::num_dual::DualDVec64> {
                 #[allow(unused_imports)]
                 use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
                 #[allow(dead_code)]
                 type $s = $crate::num_dual::DualDVec64;
                 $body
             },
+        )
+    };
+    ($($other:tt)*) => {
+        ::core::compile_error!(
+            "model!: expected `|t, x: [S; N]| body`, `|t, x: [S; N], u: [M]| body`, \
+             `|t, x: [S; Dyn]| body` or `|t, x: [S; Dyn], u: [M]| body` \
+             (N states, M held inputs, S the scalar type name the body uses)"
         )
     };
 }
@@ -239,6 +312,9 @@ where
     pub(crate) u: Vec<f64>,
     /// Counters.
     pub stats: Stats,
+    /// A wrong-length result from an unchecked call, reported by the driver when it
+    /// finds the NaN left in its place.
+    pub(crate) fault: Option<Error>,
     _dim: PhantomData<D>,
 }
 
@@ -251,6 +327,7 @@ where
             sys,
             u,
             stats: Stats::default(),
+            fault: None,
             _dim: PhantomData,
         }
     }
@@ -261,6 +338,27 @@ where
     pub fn rhs_unchecked(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
         self.stats.rhs_evals += 1;
         self.sys.rhs(t, x, &self.u, dx);
+        if dx.len() != x.len() {
+            self.wrong_length(t, x, dx);
+        }
+    }
+
+    /// Record a wrong-length derivative and leave NaN of the right length in its place,
+    /// so that the step fails the driver's finiteness check and reports this.
+    #[cold]
+    #[inline(never)]
+    fn wrong_length(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
+        self.fault.get_or_insert(Error::invalid(
+            "model",
+            format!(
+                "f returned {} components for a state of {} (at t = {})",
+                dx.len(),
+                x.len(),
+                crate::integrator::brief(t)
+            ),
+        ));
+        let (r, c) = x.shape_generic();
+        *dx = OVector::from_element_generic(r, c, f64::NAN);
     }
 
     /// `dx ← f(t, x)`, counted and checked.

@@ -1,10 +1,10 @@
 //! `reckon demo`: every method on built-in problems with known answers.
 
-use nalgebra::{Const, SVector, vector};
 use crate::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler, Method};
 use crate::models::unicycle;
 use crate::problems::*;
 use crate::{Controls, Options, Problem, System};
+use nalgebra::{Const, SVector, vector};
 use std::io::Write;
 use std::time::Instant;
 

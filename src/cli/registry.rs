@@ -1,7 +1,5 @@
 //! The problems the study commands know, behind one object-safe interface.
 
-use nalgebra::allocator::Allocator;
-use nalgebra::{Const, DefaultAllocator, Dim, OVector, SVector, vector};
 use crate::linalg::LuDim;
 use crate::methods::{Dopri5, Flow, ImplicitEuler, Method};
 use crate::models::{bicycle, carlike, unicycle};
@@ -11,6 +9,8 @@ use crate::studies::convergence::{Convergence, convergence};
 use crate::studies::stiffness::{StiffnessPoint, stiffness_along};
 use crate::studies::work_precision::{WorkPoint, work_precision};
 use crate::{Controls, Error, Options, Problem, Result, Solution, System};
+use nalgebra::allocator::Allocator;
+use nalgebra::{Const, DefaultAllocator, Dim, OVector, SVector, vector};
 
 /// A step-size history, possibly cut short by an error (RK45 on a stiff problem).
 #[derive(Debug, Clone, serde::Serialize)]

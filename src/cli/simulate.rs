@@ -1,10 +1,10 @@
 //! `reckon simulate`: a vehicle model driven by a controls CSV, with any method.
 
 use super::csvio::{open_output, read_table, write_row};
-use nalgebra::{Const, SVector};
 use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
 use crate::models::{bicycle, carlike, unicycle};
 use crate::{Controls, Options, Problem, System};
+use nalgebra::{Const, SVector};
 use std::error::Error;
 use std::io::Write;
 use std::path::PathBuf;

@@ -3,9 +3,9 @@
 
 use super::plot::{Plot, Series, Style, write_svg};
 use super::registry::{History, lookup};
-use indicatif::{ProgressBar, ProgressStyle};
 use crate::studies::MethodKind;
 use crate::studies::stability::{StabilityOf, boundary, euler_threshold, real_axis_limit};
+use indicatif::{ProgressBar, ProgressStyle};
 use std::error::Error;
 use std::io::Write;
 use std::path::{Path, PathBuf};

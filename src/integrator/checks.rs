@@ -66,6 +66,9 @@ where
         let mut found: Vec<(f64, usize)> = Vec::new();
         for (i, ev) in events.iter().enumerate() {
             let g1 = (ev.g)(*t_new, &self.x_new);
+            if g1.is_nan() {
+                return Err(crate::Error::EventNaN { index: i, t: *t_new });
+            }
             if ev.crosses(self.g_prev[i], g1) {
                 let te = if g1 == 0.0 {
                     *t_new

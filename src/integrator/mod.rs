@@ -33,7 +33,11 @@ where
     f: Eval<'p, D, S>,
     method: M,
     w: Weights<D>,
+    /// Current time as reported (a stop's own value when one was landed on).
     t: f64,
+    /// Current time measured from `t0`: steps advance this, so that steps far below
+    /// `ulp(t0)` still advance (epoch timestamps).
+    tau: f64,
     x: OVector<f64, D>,
     x_new: OVector<f64, D>,
     dir: f64,
@@ -43,6 +47,8 @@ where
     sub_h: Option<f64>,
     stops: Vec<f64>,
     stop_idx: usize,
+    /// A caller's temporary stop ([`Integrator::step_until`]).
+    until: Option<f64>,
     h: f64,
     controller: Controller,
     last_rejected: bool,
@@ -70,11 +76,17 @@ where
     pub(crate) fn new(problem: &'p Problem<'a, D, S>, mut method: M, opts: &Options) -> Result<Self> {
         opts.validate()?;
         let (t0, t_end, x0) = (problem.t0, problem.t_end, &problem.x0);
-        if !t0.is_finite() || !t_end.is_finite() {
-            return Err(Error::invalid("span", format!("({t0}, {t_end}) is not finite")));
+        if !t0.is_finite() || t_end.is_nan() {
+            return Err(Error::invalid(
+                "span",
+                format!("({}, {}) is not finite", brief(t0), brief(t_end)),
+            ));
         }
         if t0 == t_end {
-            return Err(Error::invalid("span", format!("empty span: t0 = t_end = {t0}")));
+            return Err(Error::invalid(
+                "span",
+                format!("empty span: t0 = t_end = {}", brief(t0)),
+            ));
         }
         if x0.is_empty() {
             return Err(Error::invalid("x0", "the state has no components"));
@@ -94,6 +106,11 @@ where
         // inputs
         let n_in = problem.system.inputs();
         let (segment, u) = match &problem.controls {
+            None if problem.held.is_some() => {
+                let u = problem.held.clone().unwrap_or_default();
+                check_inputs(&u, n_in)?;
+                (None, u)
+            }
             None if n_in > 0 => {
                 return Err(Error::invalid(
                     "controls",
@@ -101,6 +118,12 @@ where
                 ));
             }
             None => (None, Vec::new()),
+            Some(_) if problem.held.is_some() => {
+                return Err(Error::invalid(
+                    "controls",
+                    "both a control schedule and held inputs were given",
+                ));
+            }
             Some(c) => {
                 if c.width() != n_in {
                     return Err(Error::invalid(
@@ -172,7 +195,14 @@ where
         } else {
             Vec::new()
         };
-        let g_prev = problem.events.iter().map(|e| (e.g)(t0, x0)).collect();
+        let mut g_prev = Vec::with_capacity(problem.events.len());
+        for (index, e) in problem.events.iter().enumerate() {
+            let g = (e.g)(t0, x0);
+            if g.is_nan() {
+                return Err(Error::EventNaN { index, t: t0 });
+            }
+            g_prev.push(g);
+        }
         Ok(Integrator {
             problem,
             controller: method.controller(),
@@ -180,6 +210,7 @@ where
             method,
             w,
             t: t0,
+            tau: 0.0,
             x: x0.clone(),
             x_new: x0.clone(),
             dir,
@@ -189,6 +220,7 @@ where
             sub_h: None,
             stops,
             stop_idx: 0,
+            until: None,
             h,
             last_rejected: false,
             attempts: 0,
@@ -234,25 +266,100 @@ where
         self.dir * self.h.abs()
     }
 
-    /// The size of the next attempt and, when it lands on a stop or grid point, that time.
-    fn next_h(&self, stop: f64) -> (f64, Option<f64>) {
+    /// Switch the held inputs at the current time: a jump, so the method drops what it
+    /// carried over from the last step (as at a control breakpoint). Streaming use:
+    /// set the inputs of the interval ahead, then [`step_until`](Self::step_until) its end.
+    ///
+    /// ```
+    /// use reckon::{methods::Exact, models::unicycle, Options, Problem};
+    /// use nalgebra::vector;
+    /// // an open-ended problem fed one control interval at a time
+    /// let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, f64::INFINITY)).inputs(vec![1.0, 0.0]);
+    /// let mut it = p.integrator(Exact::new(unicycle::flow), &Options::default()).unwrap();
+    /// it.step_until(2.0).unwrap();
+    /// it.set_inputs(&[0.0, 0.5]).unwrap(); // stop and turn in place
+    /// while it.t() != 3.0 {
+    ///     it.step_until(3.0).unwrap();
+    /// }
+    /// assert_eq!(*it.x(), vector![2.0, 0.0, 0.5]);
+    /// assert!(it.set_inputs(&[1.0]).is_err()); // the unicycle reads two inputs
+    /// ```
+    pub fn set_inputs(&mut self, u: &[f64]) -> Result<()> {
+        check_inputs(u, self.problem.system.inputs())?;
+        self.f.u.clear();
+        self.f.u.extend_from_slice(u);
+        self.method.reset();
+        Ok(())
+    }
+
+    /// Take one accepted step that does not pass `t_stop`, landing on it exactly when it
+    /// reaches it (then `t() == t_stop`); `Ok(None)` once the end of the span has been
+    /// reached. `t_stop` must lie ahead in the direction of integration; one beyond
+    /// `t_end` acts as `t_end`. This is how an open-ended span (`t_end = ±∞`) is driven.
+    ///
+    /// ```
+    /// use reckon::{model, Problem, Options, methods::Dopri5};
+    /// use nalgebra::vector;
+    /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+    /// let p = Problem::new(&f, vector![1.0], (1.7e12, f64::INFINITY)); // epoch milliseconds
+    /// let mut it = p.integrator(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
+    /// while it.t() != 1.7e12 + 1.0 {
+    ///     it.step_until(1.7e12 + 1.0).unwrap();
+    /// }
+    /// assert!((it.x()[0] - (-1.0f64).exp()).abs() < 1e-9);
+    /// assert!(it.step_until(1.0).is_err()); // behind
+    /// ```
+    pub fn step_until(&mut self, t_stop: f64) -> Result<Option<f64>> {
+        if self.done {
+            return Ok(None);
+        }
+        if !t_stop.is_finite() || self.dir * (t_stop - self.t) <= 0.0 {
+            return Err(Error::invalid(
+                "t_stop",
+                format!(
+                    "{} is not ahead of t = {} in the direction of integration",
+                    brief(t_stop),
+                    brief(self.t)
+                ),
+            ));
+        }
+        self.until = Some(t_stop);
+        let r = self.step();
+        self.until = None;
+        r
+    }
+
+    /// The next time the integrator must land on: the next breakpoint (or `t_end`), or
+    /// the caller's `until` when it comes first.
+    fn next_stop(&self) -> f64 {
+        let stop = self.stops[self.stop_idx];
+        match self.until {
+            Some(u) if self.dir * (u - stop) < 0.0 => u,
+            _ => stop,
+        }
+    }
+
+    /// The size of the next attempt and, when it lands on a stop or grid point, that
+    /// time. Sizes are differences of times measured from `t0` (`tau`).
+    fn next_h(&self, stop: f64) -> (f64, Option<(f64, f64)>) {
+        let stop_tau = stop - self.problem.t0;
         if self.adaptive {
             let h = self.dir * self.h.abs().min(self.h_max);
-            if self.dir * (self.t + 1.01 * h - stop) >= 0.0 {
-                return (stop - self.t, Some(stop));
+            if self.dir * (self.tau + 1.01 * h - stop_tau) >= 0.0 {
+                return (stop_tau - self.tau, Some((stop, stop_tau)));
             }
             return (h, None);
         }
-        let grid = self.problem.t0 + (self.grid_k + 1) as f64 * self.dir * self.fixed_h;
-        let target = if self.dir * (grid - stop) >= -1e-10 * self.fixed_h {
-            stop
+        let grid = (self.grid_k + 1) as f64 * self.dir * self.fixed_h;
+        let (target, target_tau) = if self.dir * (grid - stop_tau) >= -1e-10 * self.fixed_h {
+            (stop, stop_tau)
         } else {
-            grid
+            (self.problem.t0 + grid, grid)
         };
-        let h = target - self.t;
+        let h = target_tau - self.tau;
         match self.sub_h {
             Some(hs) if hs.abs() < h.abs() => (hs, None),
-            _ => (h, Some(target)),
+            _ => (h, Some((target, target_tau))),
         }
     }
 
@@ -261,7 +368,13 @@ where
         if self.done {
             return Ok(None);
         }
-        let stop = self.stops[self.stop_idx];
+        let stop = self.next_stop();
+        if stop.is_infinite() && !self.adaptive && self.fixed_h.is_infinite() {
+            return Err(Error::invalid(
+                "span",
+                "an open-ended span needs a finite stop ahead: use step_until",
+            ));
+        }
         let mut failures = 0;
         loop {
             if self.attempts >= self.max_steps {
@@ -270,9 +383,17 @@ where
                     steps: self.attempts,
                 });
             }
-            let (h, land) = self.next_h(stop);
-            // zero, NaN, ±∞ or below what t can resolve (dopri5.f: 0.1|h| ≤ |t|·uround)
-            if !(h.abs() > 10.0 * f64::EPSILON * self.t.abs() && h.abs() < f64::INFINITY) {
+            let (h, landing) = self.next_h(stop);
+            let land = landing.map(|l| l.0);
+            if land.is_some() && h == 0.0 {
+                // two stops that differ by less than the resolution of t − t0
+                self.land_without_step(stop);
+                return Ok(Some(self.t));
+            }
+            // zero, NaN, ±∞ or below what t − t0 can resolve (dopri5.f: 0.1|h| ≤ |t|·uround);
+            // a step that lands on a stop advances to it exactly, however small
+            let resolvable = land.is_some() || h.abs() > 10.0 * f64::EPSILON * self.tau.abs();
+            if !(resolvable && h.abs() > 0.0 && h.abs() < f64::INFINITY) {
                 return Err(Error::StepSizeUnderflow { t: self.t, h });
             }
             self.attempts += 1;
@@ -309,6 +430,9 @@ where
             // explicit kernels evaluate f unchecked: every result is checked here, once
             // (v·0 is NaN exactly when v is ±∞ or NaN; the sum of zeros cannot overflow)
             if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
+                if let Some(e) = self.f.fault.take() {
+                    return Err(e);
+                }
                 return Err(self.method.diagnose(&mut self.f, self.t, &self.x, h, &self.x_new));
             }
             if self.adaptive && err > 1.0 {
@@ -322,13 +446,36 @@ where
                 self.last_rejected = true;
                 continue;
             }
-            let t_new = land.unwrap_or(self.t + h);
-            self.accept(h, err, land, t_new)?;
+            let (t_new, tau_new) = landing.unwrap_or((self.problem.t0 + self.tau + h, self.tau + h));
+            self.accept(h, err, land, t_new, tau_new)?;
             return Ok(Some(self.t));
         }
     }
 
-    fn accept(&mut self, h: f64, err: f64, land: Option<f64>, mut t_new: f64) -> Result<()> {
+    /// Reach `stop` without a step: it is closer than `t − t0` can resolve.
+    fn land_without_step(&mut self, stop: f64) {
+        self.t = stop;
+        self.arrive(Some(stop));
+    }
+
+    /// After landing on `land` (or after any step when `None`): pass a breakpoint,
+    /// switch inputs, reset the per-interval step count.
+    fn arrive(&mut self, land: Option<f64>) {
+        let Some(l) = land else { return };
+        if l == self.stops[self.stop_idx] {
+            self.attempts = 0;
+            self.stop_idx += 1;
+            if self.stop_idx == self.stops.len() {
+                self.done = true;
+            } else {
+                self.enter_segment();
+            }
+        } else if Some(l) == self.until {
+            self.attempts = 0;
+        }
+    }
+
+    fn accept(&mut self, h: f64, err: f64, land: Option<f64>, mut t_new: f64, tau_new: f64) -> Result<()> {
         self.f.stats.accepted += 1;
         if self.adaptive {
             self.check_stiffness(h, t_new);
@@ -343,6 +490,7 @@ where
         self.method.accept();
         std::mem::swap(&mut self.x, &mut self.x_new);
         self.t = t_new;
+        self.tau = if stopped { t_new - self.problem.t0 } else { tau_new };
         if stopped {
             self.done = true;
             return Ok(());
@@ -362,24 +510,22 @@ where
             self.last_rejected = false;
         } else {
             self.sub_h = None;
-            let grid = self.problem.t0 + (self.grid_k + 1) as f64 * self.dir * self.fixed_h;
-            if land.is_some() && (t_new == grid || (t_new - grid).abs() <= 1e-10 * self.fixed_h) {
+            let grid = (self.grid_k + 1) as f64 * self.dir * self.fixed_h;
+            if land.is_some() && (tau_new == grid || (tau_new - grid).abs() <= 1e-10 * self.fixed_h) {
                 self.grid_k += 1;
             }
         }
-        if land == Some(self.stops[self.stop_idx]) {
-            self.stop_idx += 1;
-            if self.stop_idx == self.stops.len() {
-                self.done = true;
-            } else {
-                self.enter_segment();
-            }
-        }
+        self.arrive(land);
         Ok(())
     }
-
     /// Run to the end and collect every step.
     pub fn solve(mut self) -> Result<Solution<D>> {
+        if self.problem.t_end.is_infinite() {
+            return Err(Error::invalid(
+                "span",
+                "an open-ended span (t_end = ±∞) has no end to solve to: drive it with step_until",
+            ));
+        }
         let mut t = vec![self.t];
         let mut x = vec![self.x.clone()];
         let mut dense = Vec::new();
@@ -423,4 +569,23 @@ where
             }
         }
     }
+}
+
+/// Held inputs must be as many as the model reads, and finite.
+fn check_inputs(u: &[f64], n_in: usize) -> Result<()> {
+    if u.len() != n_in {
+        return Err(Error::invalid(
+            "inputs",
+            format!("{} inputs given, the model reads {n_in}", u.len()),
+        ));
+    }
+    if let Some(i) = u.iter().position(|v| !v.is_finite()) {
+        return Err(Error::invalid("inputs", format!("input {i} is {}", u[i])));
+    }
+    Ok(())
+}
+
+/// A number for a message (see [`Brief`](crate::error::Brief)).
+pub(crate) fn brief(v: f64) -> String {
+    crate::error::Brief(v).to_string()
 }

@@ -82,6 +82,14 @@ where
         _adaptive: bool,
     ) -> Result<Outcome> {
         self.flow.flow(t, x, &f.u, h, x_new);
+        if x_new.len() != x.len() {
+            let n = x_new.len();
+            x_new.clone_from(x);
+            return Err(crate::Error::invalid(
+                "flow",
+                format!("the flow returned {n} components for a state of {}", x.len()),
+            ));
+        }
         finite(x_new.as_slice(), t + h, Quantity::State)?;
         Ok(Outcome::Done { err: 0.0 })
     }

@@ -71,6 +71,11 @@ where
         }
         let norm = (s / n.max(1) as f64).sqrt();
         last = norm;
+        // a correction below the rounding of every component cannot change the iterate:
+        // it is as converged as floating point allows (x₀ = 1e12, say, with a tiny step)
+        if norm.is_finite() && (0..n).all(|i| x[i] + dx[i] == x[i]) {
+            return Ok(Solve::Converged);
+        }
         if !norm.is_finite() {
             return Ok(Solve::Failed {
                 iterations: k + 1,

@@ -4,7 +4,6 @@
 use super::plot::{Plot, Series, Style, write_svg};
 use super::registry::lookup;
 use super::studies::{history_plot, prepare, stability_files};
-use nalgebra::{SVector, Vector3, vector};
 use crate::kalman::confidence_ellipse;
 use crate::kalman::slam;
 use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler};
@@ -14,6 +13,7 @@ use crate::reckoning::encoders::{DiffDrive, Update, odometry};
 use crate::reckoning::errors::{EncoderErrors, simulate};
 use crate::studies::MethodKind;
 use crate::{Controls, Options, Problem, Solution, System};
+use nalgebra::{SVector, Vector3, vector};
 use std::error::Error;
 use std::fmt::Write as _;
 use std::path::Path;

@@ -2,10 +2,10 @@
 
 use super::{Report, Res, bicycle_controls, xy};
 use crate::cli::plot::{Plot, Series, Style};
-use nalgebra::Vector3;
 use crate::methods::{Exact, ExplicitEuler};
 use crate::models::{bicycle, unicycle};
 use crate::{Options, Problem};
+use nalgebra::Vector3;
 use std::path::Path;
 
 /// The pitfalls of textbook versions, each measured.

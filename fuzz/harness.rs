@@ -51,7 +51,22 @@ fn write_file(path: &Path, bytes: &[u8]) {
     std::fs::write(path, &bytes[..bytes.len().min(MAX_FILE)]).expect("cannot write a fuzz input file");
 }
 
+static TRACE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Print the decoded case of every input to stderr before running it (off by default;
+/// `tests/fuzz_replay.rs`'s `show` test turns it on).
+pub fn set_trace(on: bool) {
+    TRACE.store(on, Ordering::Relaxed);
+}
+
+fn trace(what: impl FnOnce() -> String) {
+    if TRACE.load(Ordering::Relaxed) {
+        eprintln!("{}", what());
+    }
+}
+
 fn run_cli(argv: Vec<OsString>) {
+    trace(|| format!("argv: {argv:?}"));
     // Err is a typed failure (clap usage error or the command's one-line message): fine.
     let _ = reckon::cli::run(argv);
 }
@@ -374,6 +389,10 @@ fn cli_argv(u: &mut Unstructured) -> Result<Vec<OsString>> {
     };
     let file = input_file(u, headers)?;
     write_file(&input, &file);
+    trace(|| {
+        let text = String::from_utf8_lossy(&file[..file.len().min(400)]).into_owned();
+        format!("input file ({} bytes): {text:?}", file.len())
+    });
     let mut argv: Vec<OsString> = vec!["reckon".into(), cmd.into()];
     for (flag, required, value) in flags_of(cmd) {
         let present = if required { !u.ratio(1u8, 16)? } else { u.ratio(1u8, 2)? };
@@ -512,6 +531,7 @@ where
             _ => -1.0,
         }
     };
+    trace(|| format!("event kind {kind} with c = {c}"));
     let mut e = Event::new(g).direction(*u.choose(&[Direction::Either, Direction::Rising, Direction::Falling])?);
     if u.arbitrary()? {
         e = e.terminal();
@@ -570,6 +590,7 @@ where
     ImplicitEuler<D>: Method<D>,
     Dopri5<D>: Method<D>,
 {
+    trace(|| format!("x0 = {:?}, span = {span:?}", x0.as_slice()));
     let mut p = Problem::new(sys, x0, span);
     let with_controls = if inputs > 0 {
         !u.ratio(1u8, 16)?
@@ -577,6 +598,7 @@ where
         u.ratio(1u8, 8)?
     };
     if with_controls && let Some(c) = controls(u, inputs)? {
+        trace(|| format!("{c:?}"));
         p = p.controls(c);
     }
     for _ in 0..u.int_in_range(0u8..=2)? {
@@ -670,7 +692,14 @@ fn solve_case(u: &mut Unstructured) -> Result<()> {
     };
     let u = &mut *u;
     let k = moderate(u)?;
-    match u.int_in_range(0u8..=5)? {
+    let model = u.int_in_range(0u8..=5)?;
+    trace(|| {
+        format!(
+            "{opts:?}\nmethod {} ({:?}), drive {}, probes {:?}\nmodel {model}, k = {k}",
+            plan.method, plan.newton, plan.drive, plan.probes
+        )
+    });
+    match model {
         0 => {
             let f = model!(|_t, x: [S; 1]| Vector1::new(x[0] * k));
             let flow = move |_t: f64, x: &Vector1<f64>, _u: &[f64], h: f64| x * (k * h).exp();
@@ -701,6 +730,7 @@ fn solve_case(u: &mut Unstructured) -> Result<()> {
             let calls = &calls;
             let flow_calls = &flow_calls;
             let x0 = state(u, reckon::nalgebra::Dyn(n))?;
+            trace(|| format!("dyn: n = {n}, delta = {delta}, threshold = {threshold}, after = {after}"));
             let flow = move |_t: f64, x: &DVector<f64>, _u: &[f64], h: f64| -> DVector<f64> {
                 flow_calls.set(flow_calls.get() + 1);
                 let len = out_len(x.len(), delta, m == 5 && flow_calls.get() > after);

@@ -50,3 +50,23 @@ fn cli_args_regressions_do_not_panic() {
 fn solve_regressions_do_not_panic() {
     replay("solve", harness::solve);
 }
+
+/// Print the case an input decodes to, then run it:
+/// `FUZZ_SHOW=cli_args:fuzz/regressions/cli_args/<file> cargo test --release --test fuzz_replay -- --ignored show --nocapture`.
+#[test]
+#[ignore = "a tool for reading fuzz inputs: set FUZZ_SHOW=<target>:<file>"]
+fn show() {
+    let Ok(spec) = std::env::var("FUZZ_SHOW") else {
+        return;
+    };
+    let (target, file) = spec.split_once(':').expect("FUZZ_SHOW=<target>:<file>");
+    let data = std::fs::read(file).expect("readable input");
+    harness::set_trace(true);
+    match target {
+        "csv_inputs" => harness::csv_inputs(&data),
+        "cli_args" => harness::cli_args(&data),
+        "solve" => harness::solve(&data),
+        other => panic!("unknown target {other}"),
+    }
+    harness::remove_scratch();
+}

@@ -111,6 +111,15 @@ pub enum Error {
         /// Which matrix.
         what: &'static str,
     },
+    /// An iteration with a cap (the eigenvalue QR of a Jacobian) stopped without
+    /// converging.
+    #[error("the {what} iteration did not converge (Jacobian at t = {})", Brief(*.t))]
+    NoConvergence {
+        /// Which iteration.
+        what: &'static str,
+        /// Time of the matrix it worked on.
+        t: f64,
+    },
     /// An event function returned NaN, so whether it changed sign is unknown (a pole,
     /// where it jumps through ±∞, is a sign change; NaN is not).
     #[error("event function {index} is NaN at t = {}", Brief(*.t))]

@@ -8,7 +8,9 @@ fn main() -> ExitCode {
     match reckon::cli::dispatch(args) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("reckon: {e}");
+            // a closed stderr must not turn a clean failure into a panic
+            use std::io::Write;
+            let _ = writeln!(std::io::stderr(), "reckon: {e}");
             ExitCode::FAILURE
         }
     }

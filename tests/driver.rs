@@ -201,3 +201,40 @@ fn events_backward() {
     }
     assert_eq!(sol.last().0, 0.0);
 }
+
+/// `solve` takes a lean loop when there is nothing to stop for but `t_end`: its steps
+/// are bit for bit those of `step()` one at a time (forward, backward, from an epoch,
+/// with rejections, for an explicit and an implicit adaptive method), and its counters
+/// are the same.
+#[test]
+fn lean_solve_equals_stepping() {
+    use reckon::methods::{Dopri5, ImplicitEuler};
+    let vdp = model!(|_t, y: [S; 2]| vector![y[1].clone(), (-y[0] * y[0] + 1.0) * y[1] * 5.0 - y[0]]);
+    let mut rejected = 0;
+    for (t0, t1) in [(0.0, 12.0), (12.0, 0.0), (1.7e9, 1.7e9 + 12.0)] {
+        let p = Problem::new(&vdp, vector![2.0, 0.0], (t0, t1));
+        for tol in [1e-3, 1e-7] {
+            let opts = Options::default().rtol(tol).atol(tol).dense(false).max_steps(1_000_000);
+            macro_rules! same {
+                ($m:expr) => {{
+                    let sol = p.solve($m, &opts).unwrap();
+                    let mut it = p.integrator($m, &opts).unwrap();
+                    let mut t = vec![it.t()];
+                    let mut x = vec![*it.x()];
+                    while it.step().unwrap().is_some() {
+                        t.push(it.t());
+                        x.push(*it.x());
+                    }
+                    rejected += sol.stats.rejected;
+                    assert_eq!(sol.t, t, "times, tol {tol}, span ({t0}, {t1})");
+                    assert_eq!(sol.x, x, "states, tol {tol}, span ({t0}, {t1})");
+                    assert_eq!(sol.stats, it.stats());
+                    assert_eq!(*sol.t.last().unwrap(), t1);
+                }};
+            }
+            same!(Dopri5::default());
+            same!(ImplicitEuler::default());
+        }
+    }
+    assert!(rejected > 10, "rejections exercised: {rejected}");
+}

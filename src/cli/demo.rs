@@ -20,23 +20,37 @@ fn row<const N: usize, S: System<Const<N>>, M: Method<Const<N>>>(
 ) -> Res {
     let name = method.name();
     let start = Instant::now();
-    let r = problem.solve(method, opts);
+    // step by step, so that a run that stops on an error keeps DOPRI5's stiffness verdict
+    let mut it = match problem.integrator(method, opts) {
+        Ok(it) => it,
+        Err(e) => {
+            writeln!(out, "  {name:<15} {setting:<14} failed: {e}")?;
+            return Ok(());
+        }
+    };
+    let r = loop {
+        match it.step() {
+            Ok(Some(_)) => {}
+            Ok(None) => break Ok(()),
+            Err(e) => break Err(e),
+        }
+    };
     let ms = start.elapsed().as_secs_f64() * 1e3;
+    let stiff = it
+        .stiffness()
+        .map(|st| format!("stiff at t={:.3}", st.t))
+        .unwrap_or_default();
     match r {
-        Ok(sol) => {
-            let err = (sol.last().1 - exact).amax();
-            let s = sol.stats;
-            let stiff = sol
-                .stiffness
-                .map(|st| format!("stiff at t={:.3}", st.t))
-                .unwrap_or_default();
+        Ok(()) => {
+            let err = (it.x() - exact).amax();
+            let s = it.stats();
             writeln!(
                 out,
                 "  {name:<15} {setting:<14} {err:>10.2e} {:>9} {:>6} {:>10} {:>5} {:>7} {ms:>9.2}  {stiff}",
                 s.accepted, s.rejected, s.rhs_evals, s.jacobian_evals, s.lu_decompositions
             )?;
         }
-        Err(e) => writeln!(out, "  {name:<15} {setting:<14} failed: {e}")?,
+        Err(e) => writeln!(out, "  {name:<15} {setting:<14} failed: {e}  {stiff}")?,
     }
     Ok(())
 }

@@ -65,14 +65,14 @@ where
 pub fn dispatch(args: Args) -> Result<(), Box<dyn std::error::Error>> {
     match args.command {
         Command::Demo(a) => {
-            demo::run(&mut std::io::stdout().lock())?;
-            let n = report::run(&a.out, a.fast)?;
             use std::io::Write;
-            writeln!(
-                std::io::stdout().lock(),
-                "\nwrote {} ({n} figures)",
-                a.out.join("index.html").display()
-            )?;
+            // write errors (a closed pipe, a full disk) end the command with one message
+            let mut out = studies::Stdout::lock();
+            demo::run(&mut out)?;
+            out.flush()?;
+            let n = report::run(&a.out, a.fast)?;
+            writeln!(out, "\nwrote {} ({n} figures)", a.out.join("index.html").display())?;
+            out.flush()?;
             Ok(())
         }
         Command::Simulate(a) => simulate::run(&a),

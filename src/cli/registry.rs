@@ -5,7 +5,7 @@ use crate::methods::{Dopri5, Flow, ImplicitEuler, Method};
 use crate::models::{bicycle, carlike, unicycle};
 use crate::problems::*;
 use crate::studies::MethodKind;
-use crate::studies::convergence::{Convergence, convergence};
+use crate::studies::convergence::{Convergence, check, convergence};
 use crate::studies::stiffness::{StiffnessPoint, stiffness_along};
 use crate::studies::work_precision::{WorkPoint, work_precision};
 use crate::{Controls, Error, Options, Problem, Result, Solution, System};
@@ -32,9 +32,14 @@ pub trait StudyProblem {
     /// Default fixed steps for `method`: first-order methods and exact flows use the
     /// problem's list, RK45 a coarser one so that its errors stay above round-off.
     fn default_steps(&self, method: MethodKind) -> Vec<f64>;
-    fn convergence(&self, methods: &[MethodKind], steps: &[f64]) -> Result<Convergence>;
+    /// Refuse a convergence study before any run (no path reference, fewer than two
+    /// steps, a step that needs more than `max_steps` steps).
+    fn check_convergence(&self, methods: &[MethodKind], steps: &[f64], max_steps: u64) -> Result<()>;
+    fn convergence(&self, methods: &[MethodKind], steps: &[f64], max_steps: u64) -> Result<Convergence>;
     fn histories(&self, rtol: f64, atol: f64, max_steps: usize) -> Vec<History>;
-    fn stiffness_points(&self, rtol: f64, atol: f64, samples: usize) -> Result<Vec<StiffnessPoint>>;
+    /// The Jacobian's eigenvalues and the stiffness index at every step of an
+    /// implicit-Euler run (A-stable: its steps are set by accuracy alone).
+    fn stiffness_points(&self, rtol: f64, atol: f64) -> Result<Vec<StiffnessPoint>>;
     fn work_precision(
         &self,
         methods: &[MethodKind],
@@ -66,44 +71,18 @@ fn history<D: Dim, S: System<D>, M: Method<D>>(p: &Problem<'_, D, S>, m: M, opts
 where
     DefaultAllocator: Allocator<D>,
 {
-    let mut h = History {
-        method: m.name(),
-        t: Vec::new(),
-        h: Vec::new(),
-        accepted: 0,
-        rejected: 0,
-        rhs_evals: 0,
-        stiff_at: None,
-        reached: p.t0,
-        stopped_by: None,
-    };
-    let mut it = match p.integrator(m, opts) {
-        Ok(it) => it,
-        Err(e) => {
-            h.stopped_by = Some(e.to_string());
-            return h;
-        }
-    };
-    let mut t0 = it.t();
-    loop {
-        match it.step() {
-            Ok(Some(t)) => {
-                h.t.push(t0);
-                h.h.push(t - t0);
-                t0 = t;
-            }
-            Ok(None) => break,
-            Err(e) => {
-                h.stopped_by = Some(e.to_string());
-                break;
-            }
-        }
+    let h = crate::studies::stiffness::history(p, m, opts);
+    History {
+        method: h.method,
+        t: h.t,
+        h: h.h,
+        accepted: h.stats.accepted,
+        rejected: h.stats.rejected,
+        rhs_evals: h.stats.rhs_evals,
+        stiff_at: h.stiffness.map(|s| s.t),
+        reached: h.reached,
+        stopped_by: h.stopped_by.map(|e| e.to_string()),
     }
-    let s = it.stats();
-    (h.accepted, h.rejected, h.rhs_evals) = (s.accepted, s.rejected, s.rhs_evals);
-    h.stiff_at = it.stiffness().map(|s| s.t);
-    h.reached = it.t();
-    h
 }
 
 impl<D: LuDim, S: System<D>> Spec<D, S>
@@ -144,11 +123,8 @@ where
             _ => self.steps.clone(),
         }
     }
-    fn convergence(&self, methods: &[MethodKind], steps: &[f64]) -> Result<Convergence> {
-        if let Some(exact) = &self.exact {
-            return convergence(&self.problem, methods, steps, exact.as_ref(), self.flow());
-        }
-        if !self.rk_reference {
+    fn check_convergence(&self, methods: &[MethodKind], steps: &[f64], max_steps: u64) -> Result<()> {
+        if self.exact.is_none() && !self.rk_reference {
             return Err(Error::invalid(
                 "problem",
                 format!(
@@ -157,9 +133,16 @@ where
                 ),
             ));
         }
+        check(&self.problem, methods, steps, self.flow.is_some(), max_steps)
+    }
+    fn convergence(&self, methods: &[MethodKind], steps: &[f64], max_steps: u64) -> Result<Convergence> {
+        self.check_convergence(methods, steps, max_steps)?;
+        if let Some(exact) = &self.exact {
+            return convergence(&self.problem, methods, steps, exact.as_ref(), self.flow(), max_steps);
+        }
         let r = self.reference_solution()?;
         let exact = move |t: f64| r.at(t).unwrap_or_else(|_| r.last().1.clone());
-        convergence(&self.problem, methods, steps, &exact, self.flow())
+        convergence(&self.problem, methods, steps, &exact, self.flow(), max_steps)
     }
     fn histories(&self, rtol: f64, atol: f64, max_steps: usize) -> Vec<History> {
         let opts = Options::default()
@@ -172,13 +155,12 @@ where
             history(&self.problem, ImplicitEuler::default(), &opts),
         ]
     }
-    fn stiffness_points(&self, rtol: f64, atol: f64, samples: usize) -> Result<Vec<StiffnessPoint>> {
+    fn stiffness_points(&self, rtol: f64, atol: f64) -> Result<Vec<StiffnessPoint>> {
         let sol = self.problem.solve(
             ImplicitEuler::default(),
             &Options::default().rtol(rtol).atol(atol).dense(false),
         )?;
-        let every = (sol.t.len() / samples.max(1)).max(1);
-        stiffness_along(&self.problem.system, &sol, &self.u0(), every)
+        stiffness_along(&self.problem.system, &sol, &self.u0(), 1)
     }
     fn work_precision(
         &self,
@@ -317,7 +299,10 @@ pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> 
                 "Arenstorf orbit, one period (returns to y0); path reference RK45 at 1e-12",
                 Problem::new(arenstorf(), arenstorf_y0(), (0.0, ARENSTORF_T)),
                 None,
-                (halvings(ARENSTORF_T / 200_000.0, 4), halvings(ARENSTORF_T / 4000.0, 4)),
+                (
+                    halvings(ARENSTORF_T / 200_000.0, 4),
+                    halvings(ARENSTORF_T / 20_000.0, 4),
+                ),
             );
             s.reference_end = Some(arenstorf_y0());
             Box::new(s)

@@ -12,6 +12,35 @@ use std::path::{Path, PathBuf};
 
 type Res<T = ()> = Result<T, Box<dyn Error>>;
 
+/// Locked standard output whose write errors say what failed: a closed pipe or a full
+/// disk ends the command with one message and a non-zero exit, never a panic.
+pub struct Stdout(std::io::StdoutLock<'static>);
+
+impl Stdout {
+    pub fn lock() -> Self {
+        Stdout(std::io::stdout().lock())
+    }
+}
+
+impl Default for Stdout {
+    fn default() -> Self {
+        Self::lock()
+    }
+}
+
+fn tag(e: std::io::Error) -> std::io::Error {
+    std::io::Error::new(e.kind(), format!("cannot write to standard output: {e}"))
+}
+
+impl Write for Stdout {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.write(buf).map_err(tag)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush().map_err(tag)
+    }
+}
+
 /// Arguments shared by the study commands.
 #[derive(Debug, clap::Args)]
 pub struct Common {
@@ -38,6 +67,10 @@ pub struct ConvergenceArgs {
     /// Fixed step sizes, comma separated (default: five halvings suited to the problem).
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub steps: Option<Vec<f64>>,
+    /// Cap on the steps of one run: a step size that needs more over the problem's span
+    /// is refused before anything runs.
+    #[arg(long, default_value_t = crate::studies::convergence::DEFAULT_MAX_STEPS)]
+    pub max_steps: u64,
 }
 
 /// `reckon stiffness`.
@@ -126,11 +159,37 @@ fn fmt_order(o: Option<f64>) -> String {
     o.map(|v| format!("{v:.3}")).unwrap_or_else(|| "-".into())
 }
 
+fn fit_cell(f: &crate::studies::convergence::ConvergenceFit, o: Option<f64>) -> String {
+    match (o, f.theory) {
+        (Some(v), _) => format!("{v:.3}"),
+        (None, Some(_)) => "not asymptotic".into(),
+        (None, None) => "-".into(),
+    }
+}
+
 pub fn convergence(a: &ConvergenceArgs) -> Res {
     let ms = methods(&a.methods)?;
     let p = lookup(&a.common.problem)?;
     if let Some(steps) = &a.steps {
         positive("step", steps)?;
+    }
+    if a.max_steps == 0 {
+        return Err("--max-steps must be at least 1".into());
+    }
+    let plan: Vec<(MethodKind, Vec<f64>)> = ms
+        .iter()
+        .map(|m| (*m, a.steps.clone().unwrap_or_else(|| p.default_steps(*m))))
+        .collect();
+    // a refused study writes no file
+    for (m, steps) in &plan {
+        p.check_convergence(&[*m], steps, a.max_steps).map_err(|e| {
+            let hint = if e.to_string().contains("cap of") {
+                "; raise --max-steps to run it"
+            } else {
+                ""
+            };
+            format!("{} on {}: {e}{hint}", m.name(), p.name())
+        })?;
     }
     prepare(&a.common.out)?;
     let pb = progress(ms.len() as u64, "convergence");
@@ -141,9 +200,8 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
     // a method that fails (e.g. Newton on a problem it cannot handle at these steps)
     // does not stop the others; the first failure is reported after the files are written
     let mut failure: Option<String> = None;
-    for m in &ms {
-        let steps = a.steps.clone().unwrap_or_else(|| p.default_steps(*m));
-        match p.convergence(&[*m], &steps) {
+    for (m, steps) in &plan {
+        match p.convergence(&[*m], steps, a.max_steps) {
             Ok(s) => {
                 study.rows.extend(s.rows);
                 study.fits.extend(s.fits);
@@ -155,6 +213,10 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
         pb.inc(1);
     }
     pb.finish_and_clear();
+    if study.rows.is_empty() {
+        // nothing was measured: no empty table, no empty figure
+        return Err(failure.unwrap_or_else(|| "nothing was computed".into()).into());
+    }
     let dir = &a.common.out;
     write_csv(
         &dir.join("convergence.csv"),
@@ -184,36 +246,46 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
             .filter(|r| r.method == f.method)
             .map(|r| (r.h, r.final_error))
             .collect();
-        plot = plot.with(Series::new(
-            format!("{} (slope {})", f.method.name(), fmt_order(f.order_final)),
-            pts,
-            Style::LinePoints,
-        ));
+        let label = match (f.order_final, f.theory) {
+            (Some(o), _) => format!("{} (slope {o:.3})", f.method.name()),
+            (None, Some(_)) => format!("{} (not asymptotic)", f.method.name()),
+            (None, None) => f.method.name().to_string(),
+        };
+        plot = plot.with(Series::new(label, pts, Style::LinePoints));
     }
     write_svg(&plot, &dir.join("convergence.svg"), (800, 560))?;
+    let mut out = Stdout::lock();
     if a.common.json {
         let v = serde_json::json!({
             "problem": p.name(), "description": p.describe(), "rows": study.rows, "fits": study.fits,
             "files": ["convergence.csv", "convergence.svg"],
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
-        println!("{}: {}", p.name(), p.describe());
-        println!(
+        writeln!(out, "{}: {}", p.name(), p.describe())?;
+        writeln!(
+            out,
             "{:<16} {:>14} {:>14} {:>8}",
             "method", "order (final)", "order (max)", "theory"
-        );
+        )?;
         for f in &study.fits {
-            println!(
+            writeln!(
+                out,
                 "{:<16} {:>14} {:>14} {:>8}",
                 f.method.name(),
-                fmt_order(f.order_final),
-                fmt_order(f.order_max),
+                fit_cell(f, f.order_final),
+                fit_cell(f, f.order_max),
                 fmt_order(f.theory)
-            );
+            )?;
         }
-        println!("wrote {}/convergence.csv and convergence.svg", dir.display());
+        for f in study.fits.iter().filter(|f| f.theory.is_some()) {
+            if let Some(why) = &f.reason {
+                writeln!(out, "{}: not asymptotic, no order fitted: {why}", f.method.name())?;
+            }
+        }
+        writeln!(out, "wrote {}/convergence.csv and convergence.svg", dir.display())?;
     }
+    out.flush()?;
     match failure {
         Some(f) => Err(f.into()),
         None => Ok(()),
@@ -287,7 +359,7 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
     let pb = progress(3, "stiffness");
     let hist = p.histories(a.rtol, a.atol, a.max_steps);
     pb.inc(1);
-    let pts = p.stiffness_points(a.rtol, a.atol, 400)?;
+    let pts = p.stiffness_points(a.rtol, a.atol)?;
     pb.inc(1);
     let dahl = stability_files(dir)?;
     pb.inc(1);
@@ -304,19 +376,24 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
         (860, 560),
     )?;
     write_csv(
-        &dir.join("stiffness_ratio.csv"),
-        "t,spectral_radius,stiffness_ratio",
-        pts.iter().map(|q| format!("{},{},{}", q.t, q.spectral_radius, q.ratio)),
+        &dir.join("stiffness.csv"),
+        "t,spectral_radius,stiffness_ratio,h_accuracy,h_stability,stiffness_index",
+        pts.iter().map(|q| {
+            format!(
+                "{},{},{},{},{},{}",
+                q.t, q.spectral_radius, q.ratio, q.h_accuracy, q.h_stability, q.index
+            )
+        }),
     )?;
     let plot = Plot::new(
         format!("Stiffness along the solution: {}", p.name()),
         "t (s)",
-        "eigenvalues of the autodiff Jacobian",
+        "autodiff Jacobian along the implicit-Euler solution",
     )
     .log_y()
     .with(Series::new(
-        "stiffness ratio max|Re λ|/min|Re λ|",
-        pts.iter().map(|q| (q.t, q.ratio)).collect(),
+        "stiffness index ρ(J)·h_accuracy/3.31",
+        pts.iter().map(|q| (q.t, q.index)).collect(),
         Style::Line,
     ))
     .with(Series::new(
@@ -324,45 +401,61 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
         pts.iter().map(|q| (q.t, q.spectral_radius)).collect(),
         Style::Line,
     ));
-    write_svg(&plot, &dir.join("stiffness_ratio.svg"), (860, 560))?;
+    write_svg(&plot, &dir.join("stiffness.svg"), (860, 560))?;
     let max_ratio = pts
         .iter()
         .map(|q| q.ratio)
         .filter(|r| r.is_finite())
         .fold(1.0, f64::max);
+    let index = crate::studies::stiffness::summarize(&pts);
+    let mut out = Stdout::lock();
     if a.common.json {
         let v = serde_json::json!({
             "problem": p.name(), "description": p.describe(), "histories": hist,
+            "stiffness_index": index,
             "max_stiffness_ratio": max_ratio,
             "dp5_real_axis_limit": real_axis_limit(StabilityOf::Dopri5),
             "euler_threshold": dahl.iter().map(|(l, h, t)| serde_json::json!({"lambda": l, "located": h, "theory": t})).collect::<Vec<_>>(),
-            "files": ["step_sizes.csv", "step_sizes.svg", "stiffness_ratio.csv", "stiffness_ratio.svg", "stability_regions.svg", "stability_boundary.csv", "dahlquist_threshold.csv"],
+            "files": ["step_sizes.csv", "step_sizes.svg", "stiffness.csv", "stiffness.svg", "stability_regions.svg", "stability_boundary.csv", "dahlquist_threshold.csv"],
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
-        println!("{}: {}", p.name(), p.describe());
+        writeln!(out, "{}: {}", p.name(), p.describe())?;
         for h in &hist {
-            print!(
+            write!(
+                out,
                 "{:<15} accepted {:>8} rejected {:>6} rhs evals {:>9}",
                 h.method, h.accepted, h.rejected, h.rhs_evals
-            );
+            )?;
             if let Some(t) = h.stiff_at {
-                print!("  stiffness detected at t = {t:.4}");
+                write!(out, "  stiffness detected at t = {t:.4}")?;
             }
             if let Some(e) = &h.stopped_by {
-                print!("  stopped: {e}");
+                write!(out, "  stopped: {e}")?;
             }
-            println!();
+            writeln!(out)?;
         }
-        println!("largest stiffness ratio along the solution: {max_ratio:.3e}");
+        writeln!(
+            out,
+            "stiffness index (step accuracy needs / step DP5's stability allows): time-weighted median {:.3e}, max {:.3e}; above 1 (stiff) over {:.1} % of the span",
+            index.median,
+            index.max,
+            100.0 * index.stiff_fraction
+        )?;
+        writeln!(out, "largest eigenvalue ratio max|Re λ|/min|Re λ|: {max_ratio:.3e}")?;
         for (l, h, t) in &dahl {
-            println!("explicit Euler on λ = {l}: unstable above h = {h:.6} (theory 2/|λ| = {t:.6})");
+            writeln!(
+                out,
+                "explicit Euler on λ = {l}: unstable above h = {h:.6} (theory 2/|λ| = {t:.6})"
+            )?;
         }
-        println!(
-            "wrote step_sizes, stiffness_ratio, stability_regions (CSV and SVG) in {}",
+        writeln!(
+            out,
+            "wrote step_sizes, stiffness, stability_regions (CSV and SVG) in {}",
             dir.display()
-        );
+        )?;
     }
+    out.flush()?;
     Ok(())
 }
 
@@ -423,6 +516,10 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
         }
     }
     pb.finish_and_clear();
+    if pts.is_empty() {
+        // nothing was measured: no empty table, no empty figure
+        return Err(failure.unwrap_or_else(|| "nothing was computed".into()).into());
+    }
     let dir = &a.common.out;
     write_csv(
         &dir.join("work_precision.csv"),
@@ -446,33 +543,38 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
         let plot = work_precision_plot(&format!("Work–precision: {}", p.name()), xl, &ms, &pts, pick == 1);
         write_svg(&plot, &dir.join(file), (800, 560))?;
     }
+    let mut out = Stdout::lock();
     if a.common.json {
         let v = serde_json::json!({
             "problem": p.name(), "description": p.describe(), "points": pts,
             "files": ["work_precision.csv", "error_vs_rhs_evals.svg", "error_vs_time.svg"],
         });
-        println!("{}", serde_json::to_string_pretty(&v)?);
+        writeln!(out, "{}", serde_json::to_string_pretty(&v)?)?;
     } else {
-        println!("{}: {}", p.name(), p.describe());
-        println!(
+        writeln!(out, "{}: {}", p.name(), p.describe())?;
+        writeln!(
+            out,
             "{:<16} {:>10} {:>12} {:>11} {:>10}",
             "method", "setting", "error", "rhs evals", "ms"
-        );
+        )?;
         for w in &pts {
-            println!(
+            writeln!(
+                out,
                 "{:<16} {:>10.1e} {:>12.3e} {:>11} {:>10.3}",
                 w.method.name(),
                 w.setting,
                 w.error,
                 w.rhs_evals,
                 w.seconds * 1e3
-            );
+            )?;
         }
-        println!(
+        writeln!(
+            out,
             "wrote work_precision.csv, error_vs_rhs_evals.svg, error_vs_time.svg in {}",
             dir.display()
-        );
+        )?;
     }
+    out.flush()?;
     match failure {
         Some(f) => Err(f.into()),
         None => Ok(()),

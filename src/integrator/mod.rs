@@ -2,6 +2,7 @@
 //! errors, for any [`Method`]. It never asks which method it holds.
 
 mod checks;
+mod lean;
 
 use crate::control::{Controller, Weights, initial_step};
 use crate::error::{Error, Result};
@@ -402,27 +403,7 @@ where
                 .step(&mut self.f, self.t, &self.x, h, &mut self.x_new, &self.w, self.adaptive)?;
             let err = match outcome {
                 Outcome::Retry(why) => {
-                    self.f.stats.rejected += 1;
-                    failures += 1;
-                    // a fixed step at which I − hJ is singular has no implicit Euler map
-                    let singular_fixed = !self.adaptive && why == Failure::Singular;
-                    if failures > self.max_failures || singular_fixed {
-                        return Err(match why {
-                            Failure::Newton { iterations, residual } => Error::NewtonDiverged {
-                                t: self.t,
-                                h,
-                                iterations,
-                                residual,
-                            },
-                            Failure::Singular => Error::SingularMatrix { t: self.t, h },
-                        });
-                    }
-                    if self.adaptive {
-                        self.h = 0.5 * h.abs();
-                        self.last_rejected = true;
-                    } else {
-                        self.sub_h = Some(0.5 * h);
-                    }
+                    self.retry(why, h, &mut failures)?;
                     continue;
                 }
                 Outcome::Done { err } => err,
@@ -430,26 +411,82 @@ where
             // explicit kernels evaluate f unchecked: every result is checked here, once
             // (v·0 is NaN exactly when v is ±∞ or NaN; the sum of zeros cannot overflow)
             if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
-                if let Some(e) = self.f.fault.take() {
-                    return Err(e);
-                }
-                return Err(self.method.diagnose(&mut self.f, self.t, &self.x, h, &self.x_new));
+                return Err(self.non_finite(h));
             }
             if self.adaptive && err > 1.0 {
-                self.f.stats.rejected += 1;
-                let fac = if err.is_finite() {
-                    self.controller.reject(err)
-                } else {
-                    self.controller.min_factor
-                };
-                self.h = h.abs() * fac;
-                self.last_rejected = true;
+                self.reject(h, err);
                 continue;
             }
-            let (t_new, tau_new) = landing.unwrap_or((self.problem.t0 + self.tau + h, self.tau + h));
+            let (t_new, tau_new) = landing.unwrap_or((self.problem.t0 + (self.tau + h), self.tau + h));
             self.accept(h, err, land, t_new, tau_new)?;
             return Ok(Some(self.t));
         }
+    }
+
+    /// An implicit solve failed at `h`: halve the step, or give up with the typed error.
+    #[cold]
+    fn retry(&mut self, why: Failure, h: f64, failures: &mut usize) -> Result<()> {
+        self.f.stats.rejected += 1;
+        *failures += 1;
+        // a fixed step at which I − hJ is singular has no implicit Euler map
+        let singular_fixed = !self.adaptive && why == Failure::Singular;
+        if *failures > self.max_failures || singular_fixed {
+            return Err(match why {
+                Failure::Newton { iterations, residual } => Error::NewtonDiverged {
+                    t: self.t,
+                    h,
+                    iterations,
+                    residual,
+                },
+                Failure::Singular => Error::SingularMatrix { t: self.t, h },
+            });
+        }
+        if self.adaptive {
+            self.h = 0.5 * h.abs();
+            self.last_rejected = true;
+        } else {
+            self.sub_h = Some(0.5 * h);
+        }
+        Ok(())
+    }
+
+    /// The step produced NaN or ±∞: say where.
+    #[cold]
+    fn non_finite(&mut self, h: f64) -> Error {
+        if let Some(e) = self.f.fault.take() {
+            return e;
+        }
+        self.method.diagnose(&mut self.f, self.t, &self.x, h, &self.x_new)
+    }
+
+    /// The error estimate `err > 1` rejects the step: shrink it.
+    #[inline]
+    fn reject(&mut self, h: f64, err: f64) {
+        self.f.stats.rejected += 1;
+        let fac = if err.is_finite() {
+            self.controller.reject(err)
+        } else {
+            self.controller.min_factor
+        };
+        self.h = h.abs() * fac;
+        self.last_rejected = true;
+    }
+
+    /// The next step size after an accepted step of size `h` with estimate `err`.
+    #[inline]
+    fn propose(&mut self, h: f64, err: f64, landed: bool) {
+        let fac = self.controller.accept(err);
+        let proposal = self.h.abs();
+        let mut next = h.abs() * fac;
+        if self.last_rejected {
+            next = next.min(h.abs());
+        }
+        // a step shortened to land on a stop says nothing against the plan
+        if landed && h.abs() < proposal && !self.last_rejected {
+            next = next.max(proposal);
+        }
+        self.h = next;
+        self.last_rejected = false;
     }
 
     /// Reach `stop` without a step: it is closer than `t − t0` can resolve.
@@ -496,18 +533,7 @@ where
             return Ok(());
         }
         if self.adaptive {
-            let fac = self.controller.accept(err);
-            let proposal = self.h.abs();
-            let mut next = h.abs() * fac;
-            if self.last_rejected {
-                next = next.min(h.abs());
-            }
-            // a step shortened to land on a stop says nothing against the plan
-            if land.is_some() && h.abs() < proposal && !self.last_rejected {
-                next = next.max(proposal);
-            }
-            self.h = next;
-            self.last_rejected = false;
+            self.propose(h, err, land.is_some());
         } else {
             self.sub_h = None;
             let grid = (self.grid_k + 1) as f64 * self.dir * self.fixed_h;
@@ -529,6 +555,9 @@ where
         let mut t = vec![self.t];
         let mut x = vec![self.x.clone()];
         let mut dense = Vec::new();
+        if self.is_lean() {
+            self.run_lean(&mut t, &mut x)?;
+        }
         while self.step()?.is_some() {
             t.push(self.t);
             x.push(self.x.clone());

@@ -169,7 +169,7 @@ where
     fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
         self.work.as_ref().filter(|_| self.fsal).map(|w| &w.k[0])
     }
-    #[inline]
+    #[inline(always)]
     fn step<S: System<D>>(
         &mut self,
         f: &mut Eval<'_, D, S>,

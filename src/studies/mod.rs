@@ -9,8 +9,8 @@ pub mod work_precision;
 
 use crate::error::{Error, Result};
 use crate::linalg::LuDim;
-use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler};
-use crate::{Options, Problem, Solution, System};
+use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
+use crate::{Options, Problem, Solution, Stats, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
@@ -125,6 +125,60 @@ where
         MethodKind::Rk45 => problem.solve(Dopri5::default(), opts),
         MethodKind::Exact => match flow {
             Some(f) => problem.solve(Exact::new(DynFlow(f)), opts),
+            None => Err(Error::invalid("method", "this problem has no exact flow")),
+        },
+    }
+}
+
+fn drive_method<D: Dim, S: System<D>, M: Method<D>>(
+    problem: &Problem<'_, D, S>,
+    method: M,
+    opts: &Options,
+    visit: &mut dyn FnMut(f64, &OVector<f64, D>),
+) -> Result<(OVector<f64, D>, Stats)>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let mut it = problem.integrator(method, opts)?;
+    visit(it.t(), it.x());
+    while let Some(t) = it.step()? {
+        visit(t, it.x());
+    }
+    Ok((it.x().clone(), it.stats()))
+}
+
+/// Integrate `problem` with the method named by `kind` one step at a time, calling
+/// `visit(t, x)` at the start and after every accepted step, and return the final state
+/// and the work counters. Nothing is stored: memory stays constant however many steps the run takes
+/// (the studies use it instead of [`solve_with`] for long fixed-step runs).
+///
+/// ```
+/// use reckon::studies::{drive, MethodKind};
+/// use reckon::{model, Options, Problem};
+/// use nalgebra::vector;
+/// let f = model!(|_t, x: [S; 1]| vector![x[0]]);
+/// let p = Problem::new(&f, vector![1.0], (0.0, 1.0));
+/// let mut visits = 0;
+/// let (x, stats) = drive(&p, MethodKind::Euler, &Options::default().fixed(0.25), None, &mut |_t, _x| visits += 1).unwrap();
+/// assert_eq!((stats.accepted, visits), (4, 5));
+/// assert_eq!(x[0], 1.25f64.powi(4));
+/// ```
+pub fn drive<D: LuDim, S: System<D>>(
+    problem: &Problem<'_, D, S>,
+    kind: MethodKind,
+    opts: &Options,
+    flow: Option<&dyn Flow<D>>,
+    visit: &mut dyn FnMut(f64, &OVector<f64, D>),
+) -> Result<(OVector<f64, D>, Stats)>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    match kind {
+        MethodKind::Euler => drive_method(problem, ExplicitEuler, opts, visit),
+        MethodKind::ImplicitEuler => drive_method(problem, ImplicitEuler::default(), opts, visit),
+        MethodKind::Rk45 => drive_method(problem, Dopri5::default(), opts, visit),
+        MethodKind::Exact => match flow {
+            Some(f) => drive_method(problem, Exact::new(DynFlow(f)), opts, visit),
             None => Err(Error::invalid("method", "this problem has no exact flow")),
         },
     }

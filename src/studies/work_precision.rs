@@ -1,6 +1,7 @@
 //! Work–precision: error against rhs evaluations and wall time over a tolerance sweep.
 
-use super::{MethodKind, solve_with};
+use super::convergence::{DEFAULT_MAX_STEPS, steps_needed};
+use super::{MethodKind, drive};
 use crate::error::{Error, Result};
 use crate::linalg::LuDim;
 use crate::methods::Flow;
@@ -28,7 +29,21 @@ pub struct WorkPoint {
 
 /// For each method and each setting, solve `runs` times (timing the fastest) and
 /// measure the final error against `reference`. Adaptive methods (rk45, implicit Euler)
-/// take `tolerances` as rtol = atol; explicit Euler takes `steps` as fixed steps.
+/// take `tolerances` as rtol = atol; explicit Euler takes `steps` as fixed steps. Only
+/// the final state is kept (memory is constant); a run stops at
+/// [`DEFAULT_MAX_STEPS`] steps, and a fixed step that would need more is refused.
+///
+/// ```
+/// use reckon::studies::{work_precision::work_precision, MethodKind};
+/// use reckon::{model, Problem};
+/// use nalgebra::vector;
+/// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+/// let p = Problem::new(&f, vector![1.0], (0.0, 1.0));
+/// let reference = vector![(-1.0f64).exp()];
+/// let w = work_precision(&p, &[MethodKind::Euler], &[1e-6], &[0.01, 0.001], &reference, None, 1).unwrap();
+/// assert!(w[1].error < w[0].error / 9.0 && w[1].steps == 1000);
+/// assert!(work_precision(&p, &[MethodKind::Euler], &[1e-6], &[1e-12], &reference, None, 1).is_err());
+/// ```
 pub fn work_precision<D: LuDim, S: System<D>>(
     problem: &Problem<'_, D, S>,
     methods: &[MethodKind],
@@ -44,12 +59,29 @@ where
     if tolerances.is_empty() {
         return Err(Error::invalid("tolerances", "the tolerance list is empty"));
     }
+    if let Some(h) = steps.iter().find(|h| !(h.is_finite() && **h > 0.0)) {
+        return Err(Error::invalid("steps", format!("must be positive and finite, got {h}")));
+    }
+    if methods.contains(&MethodKind::Euler) {
+        for &h in steps {
+            let n = steps_needed(problem, h);
+            if n > DEFAULT_MAX_STEPS as f64 {
+                return Err(Error::invalid(
+                    "steps",
+                    format!("h = {h:e} needs {n:.3e} steps, more than the cap of {DEFAULT_MAX_STEPS} steps"),
+                ));
+            }
+        }
+    }
     let mut out = Vec::new();
     for &m in methods {
         let settings: Vec<(f64, Options)> = match m {
             MethodKind::Euler => steps
                 .iter()
-                .map(|&h| (h, Options::default().fixed(h).dense(false)))
+                .map(|&h| {
+                    let limit = (2.0 * steps_needed(problem, h) + 64.0) as usize;
+                    (h, Options::default().fixed(h).dense(false).max_steps(limit))
+                })
                 .collect(),
             _ => tolerances
                 .iter()
@@ -60,7 +92,7 @@ where
                             .rtol(tol)
                             .atol(tol)
                             .dense(false)
-                            .max_steps(10_000_000),
+                            .max_steps(DEFAULT_MAX_STEPS as usize),
                     )
                 })
                 .collect(),
@@ -70,17 +102,17 @@ where
             let mut last = None;
             for _ in 0..runs.max(1) {
                 let start = Instant::now();
-                let sol = solve_with(problem, m, &opts, flow)?;
+                let (end, stats) = drive(problem, m, &opts, flow, &mut |_, _| {})?;
                 best = best.min(start.elapsed().as_secs_f64());
-                last = Some(sol);
+                last = Some((end, stats));
             }
-            let Some(sol) = last else { continue };
+            let Some((end, stats)) = last else { continue };
             out.push(WorkPoint {
                 method: m,
                 setting,
-                error: (sol.last().1 - reference).amax(),
-                rhs_evals: sol.stats.rhs_evals,
-                steps: sol.stats.accepted,
+                error: (end - reference).amax(),
+                rhs_evals: stats.rhs_evals,
+                steps: stats.accepted,
                 seconds: best,
             });
         }

@@ -474,16 +474,20 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     let mut rows = Vec::new();
     for m in [MethodKind::Euler, MethodKind::ImplicitEuler, MethodKind::Rk45] {
         let steps = p.default_steps(m);
-        let s = p.convergence(&[m], &steps)?;
+        let s = p.convergence(&[m], &steps, crate::studies::convergence::DEFAULT_MAX_STEPS)?;
         let fit = &s.fits[0];
+        let order = match fit.order_final {
+            Some(o) => format!("{o:.3}"),
+            None => "not asymptotic".to_string(),
+        };
         plot = plot.with(Series::new(
-            format!("{} (slope {:.2})", m.name(), fit.order_final.unwrap_or(f64::NAN)),
+            format!("{} (slope {order})", m.name()),
             s.rows.iter().map(|r| (r.h, r.final_error)).collect(),
             Style::LinePoints,
         ));
         rows.push(vec![
             m.name().to_string(),
-            format!("{:.3}", fit.order_final.unwrap_or(f64::NAN)),
+            order,
             format!("{}", fit.theory.unwrap_or(f64::NAN)),
         ]);
     }

@@ -1,0 +1,60 @@
+//! One RK45 contender on one problem, `reps` times: run under
+//! `valgrind --tool=callgrind` to compare instruction counts (stable on a shared,
+//! noisy machine). `cargo run --release --example rk45_count -- lorenz reckon 1e-6 10`.
+#![allow(clippy::excessive_precision)]
+
+#[path = "../benches/handwritten.rs"]
+mod handwritten;
+
+use reckon::methods::Dopri5;
+use reckon::problems::*;
+use reckon::{Options, Problem, System};
+use std::hint::black_box;
+
+fn run<const N: usize>(
+    who: &str,
+    sys: impl System<nalgebra::Const<N>>,
+    hand: impl Fn(f64, &[f64; N]) -> [f64; N] + Copy,
+    x0: [f64; N],
+    t_end: f64,
+    tol: f64,
+    reps: usize,
+) -> u64 {
+    let p = Problem::new(&sys, nalgebra::SVector::from(x0), (0.0, t_end));
+    let opts = Options::default().rtol(tol).atol(tol).dense(false);
+    let mut acc = 0;
+    for _ in 0..reps {
+        acc += match who {
+            "reckon" => black_box(p.solve(Dopri5::default(), black_box(&opts)).unwrap().stats.accepted),
+            _ => black_box(handwritten::dopri5(hand, 0.0, t_end, black_box(x0), tol).accepted),
+        };
+    }
+    acc
+}
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let (prob, who, tol, reps) = (&a[1], &a[2], a[3].parse().unwrap(), a[4].parse().unwrap());
+    let steps = match prob.as_str() {
+        "lorenz" => run(who, lorenz(), handwritten::lorenz, [1.0, 1.0, 1.0], 20.0, tol, reps),
+        "arenstorf" => run(
+            who,
+            arenstorf(),
+            handwritten::arenstorf,
+            ARENSTORF_Y0,
+            ARENSTORF_T,
+            tol,
+            reps,
+        ),
+        _ => run(
+            who,
+            van_der_pol(1.0),
+            handwritten::van_der_pol,
+            [2.0, 0.0],
+            20.0,
+            tol,
+            reps,
+        ),
+    };
+    println!("{steps}");
+}

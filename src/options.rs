@@ -13,6 +13,9 @@ pub enum StepSize {
     Fixed(f64),
 }
 
+/// The smallest non-zero relative tolerance: 10 units of rounding (`10·ε ≈ 2.2e-15`).
+pub const MIN_RTOL: f64 = 10.0 * f64::EPSILON;
+
 /// Options shared by every method.
 ///
 /// ```
@@ -24,7 +27,7 @@ pub enum StepSize {
 /// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Options {
-    /// Relative tolerance (default 1e-6).
+    /// Relative tolerance (default 1e-6): 0, or at least [`MIN_RTOL`].
     pub rtol: Tolerance,
     /// Absolute tolerance (default 1e-9).
     pub atol: Tolerance,
@@ -131,6 +134,21 @@ impl Options {
                     format!("must be finite and non-negative, got {}", crate::error::Brief(*v)),
                 ));
             }
+        }
+        // a relative tolerance below the rounding unit cannot be met: every adaptive
+        // method would shrink its step to the step limit (scipy raises it to 100·ε)
+        let rtols: &[f64] = match &self.rtol {
+            Tolerance::Scalar(v) => std::slice::from_ref(v),
+            Tolerance::PerComponent(v) => v,
+        };
+        if let Some(v) = rtols.iter().find(|v| **v > 0.0 && **v < MIN_RTOL) {
+            return Err(Error::invalid(
+                "rtol",
+                format!(
+                    "{} is below what double precision can meet: use 0 (absolute control only) or at least {MIN_RTOL:e}",
+                    crate::error::Brief(*v)
+                ),
+            ));
         }
         let positive = |what: &'static str, v: f64| {
             if v > 0.0 && !v.is_nan() {

@@ -200,9 +200,26 @@ fn implicit_euler_below_the_state_ulp_converges() {
 }
 
 /// Tolerances at the edge of floating point: a clean answer or a typed error, never a
-/// non-finite error "at t = ∞".
+/// non-finite error "at t = ∞" (pure absolute control, rtol = 0, reaches the step
+/// machinery; a tiny non-zero rtol is refused up front).
 #[test]
 fn tiny_tolerances_give_a_typed_error_or_an_answer() {
+    let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
+    for atol in [1e-160, 1e-300, 5e-324] {
+        let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
+        let opts = Options::default().rtol(0.0).atol(atol).max_steps(2000);
+        for r in [
+            p.solve(Dopri5::default(), &opts),
+            p.solve(ImplicitEuler::default(), &opts),
+        ] {
+            match r {
+                Err(Error::StepSizeUnderflow { t, .. } | Error::MaxSteps { t, .. }) => {
+                    assert!(t.is_finite() && (0.0..1.0).contains(&t), "atol {atol}: t = {t}")
+                }
+                other => panic!("atol {atol}: {:?}", other.map(|s| *s.last().1)),
+            }
+        }
+    }
     let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
     for tol in [1e-160, 1e-200, 1e-300, 5e-324] {
         for method in ["rk45", "implicit"] {
@@ -217,6 +234,8 @@ fn tiny_tolerances_give_a_typed_error_or_an_answer() {
                 Err(Error::StepSizeUnderflow { t, .. } | Error::MaxSteps { t, .. }) => {
                     assert!(t.is_finite() && (0.0..1.0).contains(&t), "{method} {tol}: t = {t}")
                 }
+                // rtol below 10ε is refused up front, as it cannot be met
+                Err(Error::InvalidInput { what: "rtol", .. }) => assert!(tol < reckon::options::MIN_RTOL),
                 Err(e) => panic!("{method} at tol {tol}: {e}"),
             }
         }

@@ -351,6 +351,7 @@ pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> 
             Box::new(s)
         }
         "carlike" => {
+            let x0 = vector![0.0, 0.0, 0.0, 0.05];
             let c = Controls::new(
                 vec![0.0, 1.0, 2.0],
                 vec![vec![5.0, 0.3], vec![4.0, -0.5], vec![0.0, 0.0]],
@@ -358,9 +359,9 @@ pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> 
             .expect("valid controls");
             let mut s = spec(
                 "carlike",
-                "car-like, L = 2.5, (v, steering rate) held; 'exact' is the 2nd-order midpoint-steering flow; reference RK45 at 1e-12",
-                Problem::new(carlike::model(2.5), vector![0.0, 0.0, 0.0, 0.05], (0.0, 2.0)).controls(c),
-                None,
+                "car-like, L = 2.5, (v, steering rate) held; exact: closed-form steering and heading, positions by adaptive Gauss-Kronrod quadrature (to ~1e-14)",
+                Problem::new(carlike::model(2.5), x0, (0.0, 2.0)).controls(c.clone()),
+                Some(flow_exact(carlike::model(2.5), carlike::flow(2.5), x0, c)),
                 (halvings(0.05, 5), halvings(0.25, 4)),
             );
             s.flow = Some(Box::new(carlike::flow(2.5)));

@@ -29,7 +29,7 @@ pub enum MethodName {
     ImplicitEuler,
     /// adaptive Dormand–Prince 5(4)
     Rk45,
-    /// the model's exact (or, car-like, midpoint-steering) flow, one step per control interval
+    /// the model's exact flow, one step per control interval (--dt: a finer grid)
     Exact,
 }
 

@@ -106,7 +106,20 @@ where
     where
         DefaultAllocator: Allocator<D, D>,
     {
-        let (_, j) = num_dual::jacobian(|xd: OVector<DualVec64<D>, D>| (self.g)(t, &xd, u), x);
+        let (_, j) = num_dual::jacobian(
+            |xd: OVector<DualVec64<D>, D>| {
+                let r = (self.g)(t, &xd, u);
+                if r.len() == xd.len() {
+                    r
+                } else {
+                    // a wrong-length output (num-dual cannot even build an empty
+                    // Jacobian): NaN of the right shape, which `Eval::jacobian` reports
+                    // as the model's length error
+                    xd.map(|v| v * f64::NAN)
+                }
+            },
+            x,
+        );
         *jac = j;
     }
 }
@@ -388,7 +401,25 @@ where
                 format!("Jacobian is {}x{} for a state of {}", jac.nrows(), jac.ncols(), x.len()),
             ));
         }
-        finite(jac.as_slice(), t, Quantity::Jacobian)
+        finite(jac.as_slice(), t, Quantity::Jacobian).map_err(|e| self.length_error(t, x).unwrap_or(e))
+    }
+
+    /// After a non-finite Jacobian: a model whose output has the wrong length says so.
+    #[cold]
+    fn length_error(&mut self, t: f64, x: &OVector<f64, D>) -> Option<Error> {
+        let mut dx = x.clone();
+        self.sys.rhs(t, x, &self.u, &mut dx);
+        (dx.len() != x.len()).then(|| {
+            Error::invalid(
+                "model",
+                format!(
+                    "f returned {} components for a state of {} (at t = {})",
+                    dx.len(),
+                    x.len(),
+                    crate::integrator::brief(t)
+                ),
+            )
+        })
     }
 }
 

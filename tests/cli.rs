@@ -313,7 +313,23 @@ fn bad_simulate_inputs() {
     let c = file("ok.csv", UNICYCLE);
     fails(&sim(&c, &["--x0", "1,2"]), "--x0 has 2 values");
     fails(&sim(&c, &["--param", "wheelbase=1"]), "no parameter 'wheelbase'");
-    fails(&sim(&c, &["--dt", "0.1"]), "does not apply to the exact method");
+    // --dt refines the exact flow's grid: more rows, the same arcs to rounding
+    let fine = sim(&c, &["--dt", "0.1"]);
+    assert!(fine.status.success(), "{}", String::from_utf8_lossy(&fine.stderr));
+    let (_, fine) = rows(&fine.stdout);
+    let (_, coarse) = rows(&sim(&c, &[]).stdout);
+    assert_eq!(coarse.len(), 4);
+    assert_eq!(
+        fine.len(),
+        41,
+        "0, 0.1, …, 4 with the breakpoints 1 and 2.5 on the grid"
+    );
+    for row in &coarse {
+        let f = fine.iter().find(|r| r[0] == row[0]).unwrap();
+        for i in 1..4 {
+            assert!((f[i] - row[i]).abs() < 1e-13, "{f:?} vs {row:?}");
+        }
+    }
     fails(
         &reckon(&[
             "simulate",
@@ -508,4 +524,433 @@ fn bad_study_inputs() {
     fails_with(&o, "cannot create output folder");
     let o = reckon(&["demo", "--fast", "--out", &format!("{}/sub", p(&f))]);
     assert!(!o.status.success());
+}
+
+fn odo(e: &Path, extra: &[&str]) -> Output {
+    let mut a = vec![
+        "odometry",
+        "--encoders",
+        p(e),
+        "--wheel-diameter",
+        "0.1",
+        "--wheel-separation",
+        "0.4",
+        "--pulses-per-rev",
+        "1024",
+    ];
+    a.extend_from_slice(extra);
+    reckon(&a)
+}
+
+fn sim_exact(c: &Path, extra: &[&str]) -> Output {
+    let mut a = vec![
+        "simulate",
+        "--model",
+        "unicycle",
+        "--controls",
+        p(c),
+        "--method",
+        "exact",
+    ];
+    a.extend_from_slice(extra);
+    reckon(&a)
+}
+
+/// Issue 7.3: `1,1,5,0` under `t,v,omega` is a decimal comma, not v = 1, ω = 5.
+#[test]
+fn extra_fields_are_an_error_naming_the_line() {
+    let c = file("comma.csv", "t,v,omega\n0,1,0\n1,1,5,0\n2,0,0\n");
+    let got = fails(
+        &sim_exact(&c, &[]),
+        "line 3: 4 fields, the header has 3; a decimal comma?",
+    );
+    assert!(got.is_empty(), "no interval before the bad row: {got:?}");
+    // one interval integrated before the bad row: its rows are written
+    let c = file("comma2.csv", "t,v,omega\n0,1,0\n1,1,0\n2,1,5,0\n3,0,0\n");
+    let got = fails(&sim_exact(&c, &[]), "line 4: 4 fields, the header has 3");
+    assert_eq!(got, vec![vec![0.0, 0.0, 0.0, 0.0], vec![1.0, 1.0, 0.0, 0.0]]);
+    // too few fields too (not a decimal comma)
+    let c = file("short.csv", "t,v,omega\n0,1,0\n1,1\n");
+    fails(&sim_exact(&c, &[]), "line 3: 2 fields, the header has 3");
+    let e = file("comma3.csv", "t,left,right\n0,0,0\n0.1,10,1,5\n");
+    let got = fails(&odo(&e, &[]), "line 3: 4 fields, the header has 3; a decimal comma?");
+    assert_eq!(got, vec![vec![0.0, 0.0, 0.0, 0.0]]);
+}
+
+/// Issue 7.6: counts or geometry that overflow are an error naming the line, never NaN/inf.
+#[test]
+fn odometry_overflow_is_an_error() {
+    // 1e308 pulses of 2π m each overflow; the rows before are written
+    let e = file(
+        "huge.csv",
+        "t,left,right\n0,0,0\n0.1,10,10\n0.2,1e308,-1e308\n0.3,1,1\n",
+    );
+    let geometry = |sep: &'static str| {
+        [
+            "--wheel-diameter",
+            "2",
+            "--wheel-separation",
+            sep,
+            "--pulses-per-rev",
+            "1",
+        ]
+    };
+    let with = |e: &Path, sep: &'static str, extra: &[&str]| {
+        let mut a = vec!["odometry", "--encoders", p(e)];
+        a.extend(geometry(sep));
+        a.extend_from_slice(extra);
+        reckon(&a)
+    };
+    let got = fails(&with(&e, "0.4", &[]), "line 4: the pose is not finite (x = NaN)");
+    assert_eq!(got.len(), 2, "the rows before are written");
+    assert!(got.iter().flatten().all(|v| v.is_finite()));
+    // the heading overflows through a tiny (but invertible) separation
+    let e = file("huge2.csv", "t,left,right\n0,0,0\n0.1,-1e300,1e300\n");
+    fails(
+        &with(&e, "1e-10", &["--update", "euler"]),
+        "line 3: the pose is not finite (theta = inf)",
+    );
+    // running counts whose difference overflows
+    let e = file("huge3.csv", "t,left,right\n0,-1e308,0\n0.1,1e308,0\n");
+    let got = fails(
+        &with(&e, "0.4", &["--counts", "cumulative"]),
+        "line 3: the pose is not finite",
+    );
+    assert_eq!(got, vec![vec![0.0, 0.0, 0.0, 0.0]]);
+    // a separation whose inverse overflows
+    let o = reckon(&[
+        "odometry",
+        "--encoders",
+        p(&e),
+        "--wheel-diameter",
+        "0.1",
+        "--wheel-separation",
+        "1e-320",
+        "--pulses-per-rev",
+        "1024",
+    ]);
+    fails_with(&o, "wheel_separation: 1e-320 m is too small");
+    assert!(o.stdout.is_empty(), "nothing written");
+    // a per-pulse distance that underflows to 0
+    let o = reckon(&[
+        "odometry",
+        "--encoders",
+        p(&e),
+        "--wheel-diameter",
+        "1e-300",
+        "--wheel-separation",
+        "0.4",
+        "--pulses-per-rev",
+        "1e300",
+    ]);
+    fails_with(&o, "distance per pulse");
+    // the library refuses the same inputs
+    let robot = DiffDrive::new(0.1, 0.4, 1024.0).unwrap();
+    let robot_big = DiffDrive::new(2.0, 0.4, 1.0).unwrap();
+    assert!(odometry(&robot, &[(0.0, 0.0, 0.0), (1.0, 1e308, -1e308)], Update::Midpoint).is_ok());
+    let err = odometry(&robot_big, &[(0.0, 0.0, 0.0), (1.0, 1e308, -1e308)], Update::Midpoint).unwrap_err();
+    assert!(err.to_string().contains("after sample 1 is not finite"), "{err}");
+    assert!(DiffDrive::new(0.1, 1e-320, 1024.0).is_err());
+}
+
+/// Issue 7.9: errors stay on one short line and print numbers briefly.
+#[test]
+fn errors_are_short() {
+    // an unterminated quote swallows the rest of the file: the echo is cut at 40 characters
+    let mut text = String::from("t,v,omega\n0,1,0\n1,1,\"0.5\n");
+    for k in 2..2000 {
+        text.push_str(&format!("{k},1,0.5\n"));
+    }
+    let c = file("quote.csv", &text);
+    let o = sim_exact(&c, &[]);
+    fails_with(
+        &o,
+        "line 3: column 'omega': '0.5\\n2,1,0.5\\n3,1,0.5\\n4,1,0.5\\n5,1,0.5\\n6,1,…' is not a number (an unterminated quote?)",
+    );
+    assert!(o.stderr.len() < 200, "{}", String::from_utf8_lossy(&o.stderr));
+    // a non-number is echoed briefly too
+    let c = file("long.csv", &format!("t,v,omega\n0,1,0\n1,{},0\n", "9x".repeat(500)));
+    let o = sim_exact(&c, &[]);
+    fails_with(&o, &format!("column 'v': '{}…' is not a number", "9x".repeat(20)));
+    assert!(o.stderr.len() < 200);
+    // numbers in messages: 1e308, not 309 digits
+    let c = file("big.csv", "t,v,omega\n1e308,1,0\n1e307,1,0\n");
+    let o = sim_exact(&c, &[]);
+    fails_with(&o, "line 3: time does not increase: 1e+307 after 1e+308");
+    let e = file("big2.csv", "t,left,right\n0,0,0\n0.1,1e308,-1e308\n");
+    let o = reckon(&[
+        "odometry",
+        "--encoders",
+        p(&e),
+        "--wheel-diameter",
+        "2",
+        "--wheel-separation",
+        "0.4",
+        "--pulses-per-rev",
+        "1",
+    ]);
+    fails_with(&o, "pulses 1e+308, -1e+308 overflow with this geometry");
+}
+
+/// Issue 7.9: `--out` naming the input refuses before touching it.
+#[test]
+fn out_equal_to_input_is_refused() {
+    let c = file("same.csv", UNICYCLE);
+    let alias = format!("{}/./same.csv", p(&dir()));
+    let o = sim_exact(&c, &["--out", &alias]);
+    fails_with(&o, "is the input file");
+    assert_eq!(std::fs::read_to_string(&c).unwrap(), UNICYCLE, "input untouched");
+    let e = file("same-enc.csv", "t,left,right\n0,0,0\n0.1,1,1\n");
+    let link = dir().join("same-enc-link.csv");
+    let _ = std::fs::remove_file(&link);
+    std::fs::hard_link(&e, &link).unwrap();
+    let o = odo(&e, &["--out", p(&link)]);
+    fails_with(&o, "is the input file");
+    assert_eq!(std::fs::read_to_string(&e).unwrap(), "t,left,right\n0,0,0\n0.1,1,1\n");
+}
+
+/// Issue 7.9: `--dt -inf` reaches the check instead of being read as the flags -i -n -f.
+#[test]
+fn non_finite_options_are_clear_errors() {
+    let c = file("dt.csv", UNICYCLE);
+    for (dt, shown) in [
+        ("-inf", "-inf"),
+        ("inf", "inf"),
+        ("nan", "NaN"),
+        ("-1e400", "-inf"),
+        ("0", "0"),
+    ] {
+        let o = reckon(&[
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            p(&c),
+            "--method",
+            "euler",
+            "--dt",
+            dt,
+        ]);
+        fails_with(&o, &format!("--dt must be finite and positive, got {shown}"));
+        assert!(o.stdout.is_empty());
+    }
+    for (flag, v) in [("--rtol", "-inf"), ("--atol", "nan")] {
+        let o = sim_exact(&c, &[flag, v]);
+        fails_with(&o, &format!("invalid {}: must be finite and non-negative", &flag[2..]));
+    }
+    let e = file("dt-enc.csv", "t,left,right\n0,0,0\n");
+    let o = reckon(&[
+        "odometry",
+        "--encoders",
+        p(&e),
+        "--wheel-diameter",
+        "-inf",
+        "--wheel-separation",
+        "0.4",
+        "--pulses-per-rev",
+        "1024",
+    ]);
+    fails_with(&o, "wheel_diameter: must be finite and positive, got -inf");
+}
+
+/// The README's example log: 1 m straight, then a 90° turn in place (left wheel back).
+#[test]
+fn shipped_encoder_example() {
+    let e = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/enc.csv");
+    let o = odo(&e, &[]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.stderr.is_empty(),
+        "no warning: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let (_, got) = rows(&o.stdout);
+    let last = got.last().unwrap();
+    let k = std::f64::consts::PI * 0.1 / 1024.0;
+    // net pulses: left 3259 − 1024, right 3259 + 1024 → Δθ = 2048·k/0.4 = π/2
+    assert!((last[3] - std::f64::consts::FRAC_PI_2).abs() < 1e-13, "{last:?}");
+    // the straight leg has a pulse of jitter between the wheels: ~1 m ahead, ~0 aside
+    assert!((last[1] - 3259.0 * k).abs() < 1e-4, "{last:?}");
+    assert!(last[2].abs() < 1e-3, "{last:?}");
+}
+
+fn cumulative_of(increments: &str, offset: (i64, i64)) -> String {
+    let mut out = String::from("t,left,right\n");
+    let (mut l, mut r) = offset;
+    for (k, line) in increments.lines().skip(1).enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        if k > 0 {
+            l += f[1].parse::<i64>().unwrap();
+            r += f[2].parse::<i64>().unwrap();
+        }
+        out.push_str(&format!("{},{l},{r}\n", f[0]));
+    }
+    out
+}
+
+/// Issue 8.5: running counts and increments give the same pose; mistaking running counts
+/// for increments triggers the warning.
+#[test]
+fn odometry_cumulative_counts() {
+    let inc_text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/enc.csv")).unwrap();
+    assert!(
+        inc_text.lines().nth(1).unwrap().ends_with(",0,0"),
+        "first row: no pulses"
+    );
+    let inc = file("inc.csv", &inc_text);
+    let cum = file("cum.csv", &cumulative_of(&inc_text, (123_456, -77_000)));
+    let a = odo(&inc, &[]);
+    let b = odo(&cum, &["--counts", "cumulative"]);
+    assert!(a.status.success() && b.status.success());
+    assert!(b.stderr.is_empty(), "{}", String::from_utf8_lossy(&b.stderr));
+    let (ra, rb) = (rows(&a.stdout).1, rows(&b.stdout).1);
+    assert_eq!(ra.len(), rb.len());
+    for (x, y) in ra.iter().zip(&rb) {
+        for i in 0..4 {
+            assert_eq!(x[i].to_bits(), y[i].to_bits(), "{x:?} vs {y:?}");
+        }
+    }
+    // read as increments, the running counts are warned about (and give a wild path)
+    let c = odo(&cum, &[]);
+    assert!(c.status.success());
+    let err = String::from_utf8_lossy(&c.stderr);
+    assert!(
+        err.contains("look like running counts") && err.contains("--counts cumulative"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1);
+    // running counts from zero, both wheels forward (an arc): warned too
+    let arc: String = (0..200).fold(String::from("t,left,right\n"), |s, k| {
+        s + &format!("{},{},{}\n", k as f64 * 0.01, 40 * k + k % 3, 60 * k)
+    });
+    let c = odo(&file("arc.csv", &arc), &[]);
+    assert!(String::from_utf8_lossy(&c.stderr).contains("look like running counts"));
+    // the same arc's increments with a pulse of jitter: no warning
+    let arc_inc: String = (0..200).fold(String::from("t,left,right\n"), |s, k| {
+        s + &format!("{},{},{}\n", k as f64 * 0.01, 40 + k % 3, 60 - k % 2)
+    });
+    let c = odo(&file("arc-inc.csv", &arc_inc), &[]);
+    assert!(c.stderr.is_empty(), "{}", String::from_utf8_lossy(&c.stderr));
+}
+
+/// Issue 7.1: a log longer than the old whole-run step limit (100 000) streams through, and
+/// its rows match the library's `Problem::solve` bit for bit.
+#[test]
+fn long_log_streams_and_matches_the_library() {
+    let n = 120_000;
+    let mut text = String::from("t,v,omega\n");
+    let (mut times, mut values) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for k in 0..n {
+        let t = 1.7e9 + k as f64 * 0.01; // epoch seconds
+        let (v, w) = (1.0 + (k % 7) as f64 * 0.1, 0.3 * ((k % 1000) as f64 / 500.0 - 1.0));
+        text.push_str(&format!("{t},{v},{w}\n"));
+        times.push(t);
+        values.push(vec![v, w]);
+    }
+    let c = file("long.csv", &text);
+    let out = dir().join("long-out.csv");
+    let o = sim_exact(&c, &["--out", p(&out)]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (header, got) = rows(&std::fs::read(&out).unwrap());
+    assert_eq!(header, "t,x,y,theta");
+    let t_end = *times.last().unwrap();
+    let sol = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (times[0], t_end))
+        .controls(Controls::new(times, values).unwrap())
+        .solve(Exact::new(unicycle::flow), &Options::default().dense(false))
+        .unwrap();
+    assert_eq!(got.len(), n);
+    assert_eq!(sol.t.len(), n);
+    for (row, (t, x)) in got.iter().zip(sol.t.iter().zip(&sol.x)) {
+        assert_eq!(row[0].to_bits(), t.to_bits());
+        for i in 0..3 {
+            assert_eq!(row[i + 1].to_bits(), x[i].to_bits(), "t = {t}");
+        }
+    }
+}
+
+/// Issue 7.1: `--max-steps` limits the attempts per control interval; rows before the
+/// failing interval are written and the error names the row that ends it.
+#[test]
+fn max_steps_per_interval() {
+    let c = file("steps.csv", "t,v,omega\n0,1,0\n1,1,0.5\n11,1,0\n12,0,0\n");
+    let euler = |extra: &[&str]| {
+        let mut a = vec![
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            p(&c),
+            "--method",
+            "euler",
+            "--dt",
+            "0.1",
+        ];
+        a.extend_from_slice(extra);
+        reckon(&a)
+    };
+    // 10 steps fit the first interval, the second needs 100
+    let got = fails(
+        &euler(&["--max-steps", "50"]),
+        "line 4: integrating up to t = 11: step limit of 50 steps",
+    );
+    assert_eq!(
+        got.len(),
+        1 + 10 + 50,
+        "start, the first interval, then the attempts that fit"
+    );
+    assert_eq!(got[10][0], 1.0);
+    let o = euler(&["--max-steps", "100"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(rows(&o.stdout).1.len(), 1 + 10 + 100 + 10);
+    fails_with(&euler(&["--max-steps", "0"]), "max_steps: must be at least 1");
+    assert!(
+        euler(&["--max-steps", "0"]).stdout.is_empty(),
+        "refused before any output"
+    );
+}
+
+/// Issue 7.9: the first error that happens is reported: an interval that fails before a
+/// bad row, or a bad row before the interval that would fail.
+#[test]
+fn first_error_is_reported() {
+    let run = |c: &Path| {
+        reckon(&[
+            "simulate",
+            "--model",
+            "unicycle",
+            "--controls",
+            p(c),
+            "--method",
+            "euler",
+            "--dt",
+            "0.1",
+            "--max-steps",
+            "20",
+        ])
+    };
+    let c = file("first1.csv", "t,v,omega\n0,1,0\n5,1,0\n6,abc,0\n");
+    fails(&run(&c), "line 3: integrating up to t = 5: step limit of 20 steps");
+    let c = file("first2.csv", "t,v,omega\n0,1,0\n1,1,0\n2,abc,0\n5,1,0\n");
+    let got = fails(&run(&c), "line 4: column 'v': 'abc' is not a number");
+    assert_eq!(
+        got.last().unwrap()[0],
+        1.0,
+        "the interval before the bad row is written"
+    );
+}
+
+/// A write error is reported once, clearly (here: a full disk).
+#[test]
+fn write_errors_are_reported() {
+    if !Path::new("/dev/full").exists() {
+        return;
+    }
+    let mut text = String::from("t,v,omega\n");
+    for k in 0..20_000 {
+        text.push_str(&format!("{k},1,0.1\n"));
+    }
+    let c = file("full.csv", &text);
+    fails_with(&sim_exact(&c, &["--out", "/dev/full"]), "No space left on device");
+    let e = file("full-enc.csv", "t,left,right\n0,0,0\n1,1,1\n");
+    fails_with(&odo(&e, &["--out", "/dev/full"]), "No space left on device");
 }

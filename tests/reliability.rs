@@ -328,3 +328,25 @@ fn implicit_euler_near_a_blow_up_is_a_documented_limit() {
     assert!((tight / 1000.0 - 1.0).abs() < 0.05, "{tight}");
     assert!((rk / 1000.0 - 1.0).abs() < 1e-3, "{rk}");
 }
+
+/// A `Dyn` model whose output becomes empty after the first call, under implicit Euler:
+/// num-dual cannot build an empty Jacobian; the length error is reported, typed.
+#[test]
+fn dyn_model_emptied_under_newton_is_a_typed_error() {
+    let counter = Cell::new(0usize);
+    let calls = &counter;
+    let f = model!(|_t, x: [S; Dyn]| {
+        calls.set(calls.get() + 1);
+        let n = if calls.get() > 1 { 0 } else { x.len() };
+        DVector::from_fn(n, |i, _| -x[i].clone())
+    });
+    for opts in [Options::default(), Options::default().fixed(0.1)] {
+        counter.set(0);
+        let r = Problem::new(&f, DVector::from_vec(vec![1.0, 2.0]), (0.0, 1.0)).solve(ImplicitEuler::default(), &opts);
+        assert!(
+            matches!(&r, Err(Error::InvalidInput { what: "model", reason }) if reason.contains("0 components for a state of 2")),
+            "{:?}",
+            r.map(|s| s.last().0)
+        );
+    }
+}

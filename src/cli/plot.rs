@@ -1,8 +1,15 @@
 //! SVG plots with plotters: lines and markers, linear or logarithmic axes, legends.
+//!
+//! Every method has one colour and one dash pattern in every figure (see [`MethodStyle`]),
+//! and the legend is placed where it covers no plotted point: the first corner or side of
+//! the plot area whose box (in pixels) meets no plotted point or line segment, or, when
+//! none is free, below the plot area. [`write_svg`] returns the resulting [`Layout`] (the
+//! legend box and every plotted point in SVG pixels) so that callers and tests can check it.
 
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::error::Error;
 use std::path::Path;
 
@@ -22,6 +29,8 @@ pub struct Series {
     pub label: String,
     pub points: Vec<(f64, f64)>,
     pub style: Style,
+    /// Extra markers drawn on top of the series (e.g. the step ends of a dense curve).
+    pub markers: Vec<(f64, f64)>,
 }
 
 impl Series {
@@ -30,11 +39,18 @@ impl Series {
             label: label.into(),
             points,
             style,
+            markers: Vec::new(),
         }
+    }
+    /// Mark these points (e.g. the ends of the steps) on the series' curve.
+    pub fn with_markers(mut self, markers: Vec<(f64, f64)>) -> Self {
+        self.markers = markers;
+        self
     }
 }
 
-/// Legend placement, on the right-hand side.
+/// Preferred legend side (right-hand side); it is only a preference: the legend goes to the
+/// first position, starting with this one, where it covers no plotted point.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Legend {
     Upper,
@@ -52,7 +68,7 @@ pub struct Plot {
     pub log_y: bool,
     /// Same scale on both axes (trajectories, stability regions).
     pub equal_aspect: bool,
-    /// Where the legend goes (upper right unless a curve lives there).
+    /// Preferred legend position (upper right unless told otherwise).
     pub legend: Legend,
     pub series: Vec<Series>,
 }
@@ -93,16 +109,113 @@ impl Plot {
     }
 }
 
-const PALETTE: [RGBColor; 8] = [
-    RGBColor(31, 119, 180),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
+/// The integration methods, recognised from a series label, each with one fixed look.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MethodStyle {
+    /// Black solid line (markers at the step ends when given).
+    Exact,
+    /// Red solid line.
+    ExplicitEuler,
+    /// Green dotted line.
+    ImplicitEuler,
+    /// Blue dashed line (RK45 and its DP5 stability boundary).
+    Rk45,
+}
+
+impl MethodStyle {
+    /// The method a label names, if any: "exact…", "RK45"/"rk45"/"DP5", "implicit Euler"/
+    /// "implicit-euler", "explicit Euler"/"euler"/"… Euler h = …".
+    ///
+    /// ```
+    /// use reckon::cli::plot::MethodStyle;
+    /// assert_eq!(MethodStyle::of("rk45 (slope 5.01)"), Some(MethodStyle::Rk45));
+    /// assert_eq!(MethodStyle::of("implicit-euler"), Some(MethodStyle::ImplicitEuler));
+    /// assert_eq!(MethodStyle::of("explicit Euler h = 0.1"), Some(MethodStyle::ExplicitEuler));
+    /// assert_eq!(MethodStyle::of("true path"), None);
+    /// ```
+    pub fn of(label: &str) -> Option<MethodStyle> {
+        let l = label.to_lowercase().replace('-', " ");
+        let first = l.split_whitespace().next().unwrap_or("");
+        if first == "exact" {
+            Some(MethodStyle::Exact)
+        } else if l.contains("rk45") || first == "dp5" || l.contains("dopri") {
+            Some(MethodStyle::Rk45)
+        } else if l.contains("implicit euler") {
+            Some(MethodStyle::ImplicitEuler)
+        } else if l.contains("explicit euler") || first == "euler" || l.contains("euler h") {
+            Some(MethodStyle::ExplicitEuler)
+        } else {
+            None
+        }
+    }
+    fn color(self) -> RGBColor {
+        match self {
+            MethodStyle::Exact => RGBColor(0, 0, 0),
+            MethodStyle::ExplicitEuler => RGBColor(214, 39, 40),
+            MethodStyle::ImplicitEuler => RGBColor(44, 160, 44),
+            MethodStyle::Rk45 => RGBColor(31, 119, 180),
+        }
+    }
+    /// Dash and gap in pixels (`None`: solid).
+    fn dash(self) -> Option<(u32, u32)> {
+        match self {
+            MethodStyle::Exact | MethodStyle::ExplicitEuler => None,
+            MethodStyle::ImplicitEuler => Some((3, 4)),
+            MethodStyle::Rk45 => Some((10, 5)),
+        }
+    }
+}
+
+/// Colours of series that are not methods (none of the method colours).
+const OTHERS: [RGBColor; 7] = [
     RGBColor(255, 127, 14),
     RGBColor(148, 103, 189),
     RGBColor(140, 86, 75),
     RGBColor(227, 119, 194),
     RGBColor(23, 190, 207),
+    RGBColor(188, 189, 34),
+    RGBColor(127, 127, 127),
 ];
+
+/// Font sizes as given to plotters; its SVG backend writes `size / 1.24` px, so 17 is 13.7 px.
+const TICK_FONT: f64 = 17.0;
+const DESC_FONT: f64 = 19.0;
+const TITLE_FONT: f64 = 23.0;
+const LEGEND_FONT: f64 = 17.0;
+const LEGEND_ROW: i32 = 22;
+const MARKER_R: i32 = 4;
+
+/// Where things landed in an SVG, in its pixels (origin top left).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct Layout {
+    /// File name (set by the caller that knows it; empty otherwise).
+    pub file: String,
+    pub width: u32,
+    pub height: u32,
+    pub log_x: bool,
+    pub log_y: bool,
+    /// Plot area `[left, top, right, bottom]`.
+    pub plot_area: [i32; 4],
+    /// Legend box `[left, top, right, bottom]` (`None`: no legend).
+    pub legend: Option<[i32; 4]>,
+    /// The legend is below the plot area (no free position inside it).
+    pub legend_outside: bool,
+    pub series: Vec<SeriesLayout>,
+}
+
+/// One series as drawn, in SVG pixels.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SeriesLayout {
+    pub label: String,
+    /// Consecutive points are joined by lines (`Line`, `LinePoints`).
+    pub joined: bool,
+    /// Points are joined in pairs (`Segments`).
+    pub pairs: bool,
+    /// Marker radius in pixels (0: no markers).
+    pub marker_radius: i32,
+    pub points: Vec<(i32, i32)>,
+    pub markers: Vec<(i32, i32)>,
+}
 
 fn range(vals: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -126,95 +239,367 @@ fn range(vals: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
     }
 }
 
-/// Write `plot` as an SVG file of `size` pixels.
-pub fn write_svg(plot: &Plot, path: &Path, size: (u32, u32)) -> Result<(), Box<dyn Error>> {
+/// Chart margins (pixels): must match the `ChartBuilder` settings in `draw`.
+const MARGIN: u32 = 14;
+const X_AREA: u32 = 62;
+const Y_AREA: u32 = 96;
+const CAPTION: u32 = 40;
+
+/// Write `plot` as an SVG file of `size` pixels (taller when the legend must go below the
+/// plot); returns where the legend and the points landed.
+pub fn write_svg(plot: &Plot, path: &Path, size: (u32, u32)) -> Result<Layout, Box<dyn Error>> {
+    let (svg, mut layout) = render(plot, size)?;
+    std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    layout.file = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    Ok(layout)
+}
+
+/// Render `plot` to an SVG string and its layout: where the plot area, the legend and
+/// every plotted point landed, in SVG pixels. The legend goes to the first position inside
+/// the plot area that meets no point or line, else below it (the SVG grows taller).
+///
+/// ```
+/// use reckon::cli::plot::{render, Plot, Series, Style};
+/// // a diagonal through the upper-right corner, where the legend would go by default
+/// let plot = Plot::new("diagonal", "x", "y")
+///     .with(Series::new("exact flow", (0..=100).map(|k| (k as f64, k as f64)).collect(), Style::Line));
+/// let (svg, layout) = render(&plot, (820, 560)).unwrap();
+/// assert!(svg.contains("<svg"));
+/// let lg = layout.legend.unwrap();
+/// let covered = |p: &(i32, i32)| p.0 >= lg[0] && p.0 <= lg[2] && p.1 >= lg[1] && p.1 <= lg[3];
+/// assert!(!layout.series[0].points.iter().any(covered));
+/// assert!(!layout.legend_outside && layout.series[0].points.len() > 50);
+/// ```
+pub fn render(plot: &Plot, size: (u32, u32)) -> Result<(String, Layout), Box<dyn Error>> {
+    // first pass: is there a free position inside the plot area?
+    let (svg, layout) = render_with(plot, size, 0)?;
+    if !layout.legend_outside {
+        return Ok((svg, layout));
+    }
+    let extra = legend_size(plot).1 as u32 + 24;
+    render_with(plot, size, extra)
+}
+
+fn render_with(plot: &Plot, size: (u32, u32), below: u32) -> Result<(String, Layout), Box<dyn Error>> {
     let (mut x0, mut x1) = range(
-        plot.series.iter().flat_map(|s| s.points.iter().map(|p| p.0)),
+        plot.series
+            .iter()
+            .flat_map(|s| s.points.iter().chain(&s.markers).map(|p| p.0)),
         plot.log_x,
     );
     let (mut y0, mut y1) = range(
-        plot.series.iter().flat_map(|s| s.points.iter().map(|p| p.1)),
+        plot.series
+            .iter()
+            .flat_map(|s| s.points.iter().chain(&s.markers).map(|p| p.1)),
         plot.log_y,
     );
     if plot.equal_aspect && !plot.log_x && !plot.log_y {
         // widen the narrower range so one unit is as long on both axes
-        let (w, h) = ((size.0 - 140) as f64, (size.1 - 110) as f64);
+        let w = size.0.saturating_sub(2 * MARGIN + Y_AREA).max(1) as f64;
+        let h = size.1.saturating_sub(2 * MARGIN + X_AREA + CAPTION).max(1) as f64;
         let scale = ((x1 - x0) / w).max((y1 - y0) / h);
         let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
         (x0, x1) = (cx - 0.5 * scale * w, cx + 0.5 * scale * w);
         (y0, y1) = (cy - 0.5 * scale * h, cy + 0.5 * scale * h);
     }
-    let root = SVGBackend::new(path, size).into_drawing_area();
-    root.fill(&WHITE)?;
-    match (plot.log_x, plot.log_y) {
-        (false, false) => draw(plot, &root, x0..x1, y0..y1)?,
-        (true, true) => draw(plot, &root, (x0..x1).log_scale(), (y0..y1).log_scale())?,
-        (false, true) => draw(plot, &root, x0..x1, (y0..y1).log_scale())?,
-        (true, false) => draw(plot, &root, (x0..x1).log_scale(), y0..y1)?,
-    }
-    root.present()?;
-    Ok(())
+    let mut buf = String::new();
+    let layout = {
+        let root = SVGBackend::with_string(&mut buf, (size.0, size.1 + below)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (top, _) = root.split_vertically(size.1);
+        let (xs, ys) = (x1 - x0, y1 - y0);
+        let mut layout = match (plot.log_x, plot.log_y) {
+            (false, false) => draw(plot, &root, &top, x0..x1, y0..y1, (xs, ys), below > 0)?,
+            (true, true) => draw(
+                plot,
+                &root,
+                &top,
+                (x0..x1).log_scale(),
+                (y0..y1).log_scale(),
+                (0.0, 0.0),
+                below > 0,
+            )?,
+            (false, true) => draw(plot, &root, &top, x0..x1, (y0..y1).log_scale(), (xs, 0.0), below > 0)?,
+            (true, false) => draw(plot, &root, &top, (x0..x1).log_scale(), y0..y1, (0.0, ys), below > 0)?,
+        };
+        root.present()?;
+        layout.width = size.0;
+        layout.height = size.1 + below;
+        layout.log_x = plot.log_x;
+        layout.log_y = plot.log_y;
+        layout
+    };
+    Ok((buf, layout))
 }
 
-fn draw<X, Y>(plot: &Plot, root: &DrawingArea<SVGBackend<'_>, Shift>, xr: X, yr: Y) -> Result<(), Box<dyn Error>>
+/// Legend box size in pixels (a conservative text-width estimate: 0.62 em per character).
+fn legend_size(plot: &Plot) -> (i32, i32) {
+    let labels: Vec<&Series> = plot.series.iter().filter(|s| !s.label.is_empty()).collect();
+    let px = LEGEND_FONT / 1.24;
+    let text = labels
+        .iter()
+        .map(|s| (s.label.chars().count() as f64 * 0.62 * px).ceil() as i32)
+        .max()
+        .unwrap_or(0);
+    (10 + 34 + 8 + text + 10, 8 + LEGEND_ROW * labels.len() as i32 + 4)
+}
+
+fn series_color(plot: &Plot, i: usize) -> (RGBColor, Option<(u32, u32)>) {
+    match MethodStyle::of(&plot.series[i].label) {
+        Some(m) => (m.color(), m.dash()),
+        None => {
+            let k = plot.series[..i]
+                .iter()
+                .filter(|s| MethodStyle::of(&s.label).is_none())
+                .count();
+            (OTHERS[k % OTHERS.len()], None)
+        }
+    }
+}
+
+/// Snap values that are rounding noise relative to the axis span to 0, then shorten.
+fn tick(v: f64, span: f64) -> String {
+    if span > 0.0 && v.abs() < 1e-9 * span {
+        "0".into()
+    } else {
+        short(v)
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn draw<X, Y>(
+    plot: &Plot,
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    area: &DrawingArea<SVGBackend<'_>, Shift>,
+    xr: X,
+    yr: Y,
+    spans: (f64, f64),
+    outside: bool,
+) -> Result<Layout, Box<dyn Error>>
 where
     X: AsRangedCoord<Value = f64>,
     Y: AsRangedCoord<Value = f64>,
     X::CoordDescType: ValueFormatter<f64>,
     Y::CoordDescType: ValueFormatter<f64>,
 {
-    let mut chart = ChartBuilder::on(root)
-        .caption(&plot.title, ("sans-serif", 20))
-        .margin(12)
-        .x_label_area_size(45)
-        .y_label_area_size(75)
+    let mut chart = ChartBuilder::on(area)
+        .caption(&plot.title, ("sans-serif", TITLE_FONT))
+        .margin(MARGIN)
+        .x_label_area_size(X_AREA)
+        .y_label_area_size(Y_AREA)
         .build_cartesian_2d(xr, yr)?;
+    let (xs, ys) = spans;
+    let xf = move |v: &f64| tick(*v, xs);
+    let yf = move |v: &f64| tick(*v, ys);
     chart
         .configure_mesh()
         .x_desc(plot.x_label.as_str())
         .y_desc(plot.y_label.as_str())
-        .x_label_formatter(&|v| short(*v))
-        .y_label_formatter(&|v| short(*v))
-        .light_line_style(RGBColor(235, 235, 235))
+        .x_label_formatter(&xf)
+        .y_label_formatter(&yf)
+        .label_style(("sans-serif", TICK_FONT))
+        .axis_desc_style(("sans-serif", DESC_FONT))
+        .x_labels(8)
+        .y_labels(8)
+        .light_line_style(RGBColor(238, 238, 238))
         .draw()?;
+    let mut series_layout = Vec::new();
     for (i, s) in plot.series.iter().enumerate() {
-        let color = PALETTE[i % PALETTE.len()];
-        let pts: Vec<(f64, f64)> = s
-            .points
-            .iter()
-            .copied()
-            .filter(|p| p.0.is_finite() && p.1.is_finite() && (!plot.log_x || p.0 > 0.0) && (!plot.log_y || p.1 > 0.0))
-            .collect();
-        let anno = match s.style {
-            Style::Line => chart.draw_series(LineSeries::new(pts, color.stroke_width(2)))?,
-            Style::Points => chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled())))?,
-            Style::LinePoints => {
-                chart.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?;
-                chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled())))?
-            }
-            Style::Segments => chart.draw_series(
-                pts.chunks_exact(2)
-                    .map(|c| PathElement::new(vec![c[0], c[1]], color.stroke_width(2))),
-            )?,
+        let (color, dash) = series_color(plot, i);
+        let ok = |p: &(f64, f64)| {
+            p.0.is_finite() && p.1.is_finite() && (!plot.log_x || p.0 > 0.0) && (!plot.log_y || p.1 > 0.0)
         };
-        if !s.label.is_empty() {
-            anno.label(s.label.as_str())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(3)));
+        let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(ok).collect();
+        let markers: Vec<(f64, f64)> = s.markers.iter().copied().filter(ok).collect();
+        let width = if MethodStyle::of(&s.label) == Some(MethodStyle::Exact) {
+            3
+        } else {
+            2
+        };
+        let line = color.stroke_width(width);
+        let joined = matches!(s.style, Style::Line | Style::LinePoints);
+        if joined {
+            match dash {
+                None => {
+                    chart.draw_series(LineSeries::new(pts.clone(), line))?;
+                }
+                Some((on, off)) => {
+                    chart.draw_series(DashedLineSeries::new(pts.clone(), on, off, line))?;
+                }
+            }
+        }
+        if s.style == Style::Segments {
+            chart.draw_series(pts.chunks_exact(2).map(|c| PathElement::new(vec![c[0], c[1]], line)))?;
+        }
+        let dots = matches!(s.style, Style::Points | Style::LinePoints);
+        if dots {
+            chart.draw_series(pts.iter().map(|p| Circle::new(*p, MARKER_R, color.filled())))?;
+        }
+        chart.draw_series(markers.iter().map(|p| Circle::new(*p, MARKER_R, color.filled())))?;
+        let px = |v: &[(f64, f64)]| v.iter().map(|p| chart.backend_coord(p)).collect::<Vec<_>>();
+        let mut points = px(&pts);
+        if s.style != Style::Segments {
+            // consecutive points on the same pixel add nothing to the record
+            points.dedup();
+        }
+        series_layout.push(SeriesLayout {
+            label: s.label.clone(),
+            joined,
+            pairs: s.style == Style::Segments,
+            marker_radius: if dots || !markers.is_empty() { MARKER_R } else { 0 },
+            points,
+            markers: px(&markers),
+        });
+    }
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let pa = [xr.start, yr.start, xr.end, yr.end];
+    let mut layout = Layout {
+        file: String::new(),
+        width: 0,
+        height: 0,
+        log_x: false,
+        log_y: false,
+        plot_area: pa,
+        legend: None,
+        legend_outside: false,
+        series: series_layout,
+    };
+    if plot.series.iter().all(|s| s.label.is_empty()) {
+        return Ok(layout);
+    }
+    let (w, h) = legend_size(plot);
+    let pad = 10;
+    let (l, r, c) = (pa[0] + pad, pa[2] - pad - w, (pa[0] + pa[2] - w) / 2);
+    let (t, b, m) = (pa[1] + pad, pa[3] - pad - h, (pa[1] + pa[3] - h) / 2);
+    let right = match plot.legend {
+        Legend::Upper => [(r, t), (r, m), (r, b)],
+        Legend::Middle => [(r, m), (r, t), (r, b)],
+        Legend::Lower => [(r, b), (r, m), (r, t)],
+    };
+    let candidates = right.into_iter().chain([(l, t), (l, b), (c, t), (c, b), (l, m)]);
+    let mut place = None;
+    if !outside {
+        for (x, y) in candidates {
+            let rect = [x, y, x + w, y + h];
+            if x >= pa[0] && y >= pa[1] && rect[2] <= pa[2] && rect[3] <= pa[3] && !covers(&rect, &layout.series) {
+                place = Some(rect);
+                break;
+            }
         }
     }
-    if plot.series.iter().any(|s| !s.label.is_empty()) {
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(match plot.legend {
-                Legend::Upper => SeriesLabelPosition::UpperRight,
-                Legend::Middle => SeriesLabelPosition::MiddleRight,
-                Legend::Lower => SeriesLabelPosition::LowerRight,
-            })
-            .draw()?;
+    let rect = match place {
+        Some(r) => r,
+        None => {
+            layout.legend_outside = true;
+            let y = pa[3] + X_AREA as i32 + 12;
+            let x = ((pa[0] + pa[2] - w) / 2).max(4);
+            [x, y, x + w, y + h]
+        }
+    };
+    layout.legend = Some(rect);
+    if !outside && place.is_none() {
+        // first pass: the caller renders again with room below
+        return Ok(layout);
     }
-    Ok(())
+    root.draw(&Rectangle::new(
+        [(rect[0], rect[1]), (rect[2], rect[3])],
+        WHITE.filled(),
+    ))?;
+    root.draw(&Rectangle::new(
+        [(rect[0], rect[1]), (rect[2], rect[3])],
+        RGBColor(90, 90, 90).stroke_width(1),
+    ))?;
+    let font = ("sans-serif", LEGEND_FONT)
+        .into_font()
+        .color(&BLACK)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    let mut row = 0;
+    for (i, s) in plot.series.iter().enumerate() {
+        if s.label.is_empty() {
+            continue;
+        }
+        let (color, dash) = series_color(plot, i);
+        let y = rect[1] + 8 + LEGEND_ROW * row + LEGEND_ROW / 2;
+        let (x0, x1) = (rect[0] + 10, rect[0] + 10 + 34);
+        let style = color.stroke_width(if MethodStyle::of(&s.label) == Some(MethodStyle::Exact) {
+            3
+        } else {
+            2
+        });
+        let joined = !matches!(s.style, Style::Points);
+        if joined {
+            match dash {
+                None => root.draw(&PathElement::new(vec![(x0, y), (x1, y)], style))?,
+                Some((on, off)) => {
+                    let mut x = x0;
+                    while x < x1 {
+                        let e = (x + on as i32).min(x1);
+                        root.draw(&PathElement::new(vec![(x, y), (e, y)], style))?;
+                        x = e + off as i32;
+                    }
+                }
+            }
+        }
+        if !joined || s.style == Style::LinePoints || !s.markers.is_empty() {
+            root.draw(&Circle::new(((x0 + x1) / 2, y), MARKER_R, color.filled()))?;
+        }
+        root.draw(&Text::new(s.label.clone(), (x1 + 8, y), font.clone()))?;
+        row += 1;
+    }
+    Ok(layout)
+}
+
+/// Whether `rect` (with a 3-pixel margin) meets a plotted point, marker or line segment.
+fn covers(rect: &[i32; 4], series: &[SeriesLayout]) -> bool {
+    series.iter().any(|s| {
+        let m = 3 + s.marker_radius;
+        let grown = [rect[0] - m, rect[1] - m, rect[2] + m, rect[3] + m];
+        let inside = |p: &(i32, i32)| p.0 >= grown[0] && p.0 <= grown[2] && p.1 >= grown[1] && p.1 <= grown[3];
+        if s.points.iter().chain(&s.markers).any(inside) {
+            return true;
+        }
+        let grown = [rect[0] - 3, rect[1] - 3, rect[2] + 3, rect[3] + 3];
+        if s.joined {
+            s.points.windows(2).any(|w| segment_meets(w[0], w[1], &grown))
+        } else if s.pairs {
+            s.points.chunks_exact(2).any(|w| segment_meets(w[0], w[1], &grown))
+        } else {
+            false
+        }
+    })
+}
+
+/// Whether the segment a–b meets the rectangle `[l, t, r, b]` (Liang–Barsky clipping).
+fn segment_meets(a: (i32, i32), b: (i32, i32), rect: &[i32; 4]) -> bool {
+    let (x0, y0) = (a.0 as f64, a.1 as f64);
+    let (dx, dy) = (b.0 as f64 - x0, b.1 as f64 - y0);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [
+        (-dx, x0 - rect[0] as f64),
+        (dx, rect[2] as f64 - x0),
+        (-dy, y0 - rect[1] as f64),
+        (dy, rect[3] as f64 - y0),
+    ] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return false;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+            if t0 > t1 {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 fn short(v: f64) -> String {
@@ -225,5 +610,26 @@ fn short(v: f64) -> String {
     } else {
         let s = format!("{v:.3}");
         s.trim_end_matches('0').trim_end_matches('.').to_string()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ticks_snap_rounding_noise_to_zero() {
+        assert_eq!(tick(-6e-17, 0.45), "0");
+        assert_eq!(tick(-0.05, 0.45), "-0.05");
+        assert_eq!(tick(1e-5, 1e-4), "1e-5");
+    }
+
+    #[test]
+    fn segment_through_a_box_meets_it() {
+        let r = [10, 10, 20, 20];
+        assert!(segment_meets((0, 15), (30, 15), &r));
+        assert!(!segment_meets((0, 0), (30, 5), &r));
+        assert!(segment_meets((12, 12), (13, 13), &r));
+        assert!(!segment_meets((0, 30), (9, 0), &r));
     }
 }

@@ -1,12 +1,11 @@
 //! `reckon simulate`: a vehicle model driven by a controls CSV, with any method.
 
-use super::csvio::{open_output, read_table, write_row};
+use super::csvio::{RowWriter, Rows, check_not_input, num};
 use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
 use crate::models::{bicycle, carlike, unicycle};
-use crate::{Controls, Options, Problem, System};
+use crate::{Options, Problem, System};
 use nalgebra::{Const, SVector};
 use std::error::Error;
-use std::io::Write;
 use std::path::PathBuf;
 
 /// Vehicle models the command knows.
@@ -39,22 +38,24 @@ pub struct SimulateArgs {
     /// Vehicle model.
     #[arg(long, value_enum)]
     pub model: ModelName,
-    /// Controls CSV: header t,<inputs>; each row's inputs hold until the next row's t;
-    /// the last row's t is the end time.
+    /// Controls CSV: header t,<inputs> (other columns are ignored; every row has as many
+    /// fields as the header); each row's inputs hold until the next row's t; the last
+    /// row's t is the end time. Read and integrated row by row: a log of any length runs
+    /// in constant memory.
     #[arg(long)]
     pub controls: PathBuf,
     /// Integration method.
     #[arg(long, value_enum)]
     pub method: MethodName,
-    /// Fixed step of euler and implicit-euler (default: one step per control interval);
-    /// largest step of rk45.
-    #[arg(long, allow_negative_numbers = true)]
+    /// Fixed step of euler, implicit-euler and exact (default: one step per control
+    /// interval); largest step of rk45.
+    #[arg(long, allow_hyphen_values = true)]
     pub dt: Option<f64>,
     /// Relative tolerance (rk45; Newton's scale for implicit-euler).
-    #[arg(long, default_value_t = 1e-6, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1e-6, allow_hyphen_values = true)]
     pub rtol: f64,
     /// Absolute tolerance.
-    #[arg(long, default_value_t = 1e-9, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1e-9, allow_hyphen_values = true)]
     pub atol: f64,
     /// Model parameter NAME=VALUE (wheelbase).
     #[arg(long = "param", value_name = "NAME=VALUE")]
@@ -62,7 +63,11 @@ pub struct SimulateArgs {
     /// Initial state, comma separated (x,y,theta[,steer]); default all zero.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub x0: Option<Vec<f64>>,
-    /// Output CSV (default: standard output).
+    /// Largest number of step attempts between two consecutive control rows (so the
+    /// limit scales with the length of the log).
+    #[arg(long, default_value_t = 100_000)]
+    pub max_steps: usize,
+    /// Output CSV (default: standard output); may not be the controls file.
     #[arg(long)]
     pub out: Option<PathBuf>,
 }
@@ -93,78 +98,65 @@ fn parse_params(model: ModelName, params: &[String]) -> Result<f64, Box<dyn Erro
     Ok(wheelbase)
 }
 
-/// Run the command; rows computed before an error are written before it is returned.
+/// Run the command, streaming: each row of the controls is read, the interval it opens is
+/// integrated and its steps written, then the row is dropped. Rows computed before an
+/// error are written before it is returned; the first error that happens (a bad row or an
+/// interval that fails to integrate) is the one reported.
 pub fn run(args: &SimulateArgs) -> Result<(), Box<dyn Error>> {
     let wheelbase = parse_params(args.model, &args.params)?;
-    if let Some(dt) = args.dt {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(format!("--dt must be finite and positive, got {dt}").into());
-        }
-        if args.method == MethodName::Exact {
-            return Err("--dt does not apply to the exact method: it takes one step per control interval".into());
-        }
+    if let Some(dt) = args.dt
+        && !(dt.is_finite() && dt > 0.0)
+    {
+        return Err(format!("--dt must be finite and positive, got {}", num(dt)).into());
     }
     let inputs: &[&str] = match args.model {
         ModelName::Unicycle => &["t", "v", "omega"],
         ModelName::Bicycle => &["t", "v", "steer"],
         ModelName::Carlike => &["t", "v", "steer_rate"],
     };
-    let table = read_table(&args.controls, inputs)?;
-    let mut out = open_output(args.out.as_deref())?;
-    let result = if table.rows.len() < 2 {
-        match &table.error {
-            Some(_) => Ok(()),
-            None => Err(format!(
-                "{}: at least two rows are needed (the last row's t is the end time)",
-                args.controls.display()
-            )
-            .into()),
-        }
-    } else {
-        let times = table.rows.iter().map(|r| r.1[0]).collect();
-        let values = table.rows.iter().map(|r| r.1[1..].to_vec()).collect();
-        let controls = Controls::new(times, values)?;
-        match args.model {
-            ModelName::Unicycle => model_run(
-                args,
-                unicycle::model(),
-                unicycle::flow,
-                controls,
-                &mut out,
-                "t,x,y,theta",
-            ),
-            ModelName::Bicycle => model_run(
-                args,
-                bicycle::model(wheelbase),
-                bicycle::flow(wheelbase),
-                controls,
-                &mut out,
-                "t,x,y,theta",
-            ),
-            ModelName::Carlike => model_run(
-                args,
-                carlike::model(wheelbase),
-                carlike::flow(wheelbase),
-                controls,
-                &mut out,
-                "t,x,y,theta,steer",
-            ),
-        }
+    let mut rdr = Rows::open(&args.controls, inputs)?;
+    check_not_input(args.out.as_deref(), &args.controls)?;
+    let mut out = RowWriter::open(args.out.as_deref())?;
+    let result = match args.model {
+        ModelName::Unicycle => model_run(
+            args,
+            unicycle::model(),
+            unicycle::flow,
+            &mut rdr,
+            &mut out,
+            "t,x,y,theta",
+        ),
+        ModelName::Bicycle => model_run(
+            args,
+            bicycle::model(wheelbase),
+            bicycle::flow(wheelbase),
+            &mut rdr,
+            &mut out,
+            "t,x,y,theta",
+        ),
+        ModelName::Carlike => model_run(
+            args,
+            carlike::model(wheelbase),
+            carlike::flow(wheelbase),
+            &mut rdr,
+            &mut out,
+            "t,x,y,theta,steer",
+        ),
     };
-    out.flush()?;
+    // everything computed is written; the first error (a row, a step or a write) is reported
+    let written = out.flush();
     result?;
-    match table.error {
-        Some(e) => Err(e.into()),
-        None => Ok(()),
-    }
+    Ok(written?)
 }
+
+type ControlRows = Rows;
 
 fn model_run<const N: usize>(
     args: &SimulateArgs,
     sys: impl System<Const<N>>,
     flow: impl Flow<Const<N>>,
-    controls: Controls,
-    out: &mut dyn Write,
+    rdr: &mut ControlRows,
+    out: &mut RowWriter,
     header: &str,
 ) -> Result<(), Box<dyn Error>>
 where
@@ -182,41 +174,81 @@ where
             .into());
         }
     };
-    let t0 = controls.times()[0];
-    let t_end = *controls.times().last().unwrap_or(&t0);
-    let problem = Problem::new(&sys, x0, (t0, t_end)).controls(controls);
-    let base = Options::default().rtol(args.rtol).atol(args.atol).dense(false);
-    let span = t_end - t0;
-    writeln!(out, "{header}")?;
+    let file = rdr.file().to_string();
+    let too_short = || format!("{file}: at least two rows are needed (the last row's t is the end time)");
+    let first = match rdr.next_row()? {
+        Some(row) => row.to_vec(),
+        None => return Err(too_short().into()),
+    };
+    let next = match rdr.next_row()? {
+        Some(row) => row.to_vec(),
+        None => return Err(too_short().into()),
+    };
+    let problem = Problem::new(&sys, x0, (first[0], f64::INFINITY)).inputs(first[1..].to_vec());
+    let base = Options::default()
+        .rtol(args.rtol)
+        .atol(args.atol)
+        .dense(false)
+        .max_steps(args.max_steps);
+    // without --dt the fixed-step methods take one step per control interval
+    let fixed = base.clone().fixed(args.dt.unwrap_or(f64::MAX));
+    base.validate()?;
+    if let Some(dt) = args.dt {
+        base.clone().fixed(dt).validate()?;
+    }
+    out.line(header)?;
     match args.method {
-        MethodName::Euler => stream(&problem, ExplicitEuler, &base.fixed(args.dt.unwrap_or(span)), out),
-        MethodName::ImplicitEuler => stream(
-            &problem,
-            ImplicitEuler::default(),
-            &base.fixed(args.dt.unwrap_or(span)),
-            out,
-        ),
+        MethodName::Euler => stream(&problem, ExplicitEuler, &fixed, rdr, next, out),
+        MethodName::ImplicitEuler => stream(&problem, ImplicitEuler::default(), &fixed, rdr, next, out),
         MethodName::Rk45 => stream(
             &problem,
             Dopri5::default(),
             &base.h_max(args.dt.unwrap_or(f64::INFINITY)),
+            rdr,
+            next,
             out,
         ),
-        MethodName::Exact => stream(&problem, Exact::new(flow), &base, out),
+        MethodName::Exact => {
+            let opts = match args.dt {
+                Some(dt) => base.fixed(dt),
+                None => base,
+            };
+            stream(&problem, Exact::new(flow), &opts, rdr, next, out)
+        }
     }
 }
 
-/// Write the start and every step as it is taken.
+/// Write the start, then for each control row: integrate up to its time, writing every
+/// step, and switch to its inputs once the row after it has been read.
 fn stream<const N: usize, S: System<Const<N>>, M: Method<Const<N>>>(
     problem: &Problem<'_, Const<N>, S>,
     method: M,
     opts: &Options,
-    out: &mut dyn Write,
+    rdr: &mut ControlRows,
+    mut next: Vec<f64>,
+    out: &mut RowWriter,
 ) -> Result<(), Box<dyn Error>> {
     let mut it = problem.integrator(method, opts)?;
-    write_row(out, it.t(), it.x().as_slice())?;
-    while let Some(t) = it.step()? {
-        write_row(out, t, it.x().as_slice())?;
+    out.row(it.t(), it.x().as_slice())?;
+    let mut after = next.clone();
+    loop {
+        let t_next = next[0];
+        while it.t() != t_next {
+            match it.step_until(t_next) {
+                Ok(Some(t)) => out.row(t, it.x().as_slice())?,
+                Ok(None) => break,
+                Err(e) => {
+                    return Err(rdr.error(format!("integrating up to t = {}: {e}", num(t_next))).into());
+                }
+            }
+        }
+        match rdr.next_row()? {
+            None => return Ok(()),
+            Some(row) => after.copy_from_slice(row),
+        }
+        // the row just reached starts the next interval
+        it.set_inputs(&next[1..])
+            .map_err(|e| rdr.error(format!("the inputs of the previous row: {e}")))?;
+        std::mem::swap(&mut next, &mut after);
     }
-    Ok(())
 }

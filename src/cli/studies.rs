@@ -84,7 +84,8 @@ pub struct StiffnessArgs {
     /// Absolute tolerance of the adaptive runs.
     #[arg(long, default_value_t = 1e-7, allow_negative_numbers = true)]
     pub atol: f64,
-    /// Step limit per run (RK45 on a stiff problem stops here, and says so).
+    /// Step limit per run, 1 to 10⁷ (RK45 on a stiff problem stops here, and says so;
+    /// each run keeps its step-size history, so the limit bounds memory).
     #[arg(long, default_value_t = 200_000)]
     pub max_steps: usize,
 }
@@ -103,9 +104,9 @@ pub struct WorkPrecisionArgs {
     /// Fixed steps for explicit Euler, comma separated.
     #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
     pub steps: Option<Vec<f64>>,
-    /// Timing repetitions (the fastest counts).
-    #[arg(long, default_value_t = 3)]
-    pub runs: usize,
+    /// Timing repetitions (the fastest counts), 1 to 1000.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u16).range(1..=1000))]
+    pub runs: u16,
 }
 
 fn methods(names: &[String]) -> Res<Vec<MethodKind>> {
@@ -305,7 +306,7 @@ pub fn stability_files(dir: &Path) -> Res<Vec<(f64, f64, f64)>> {
     let mut plot = Plot::new("Linear stability regions |R(hλ)| ≤ 1", "Re(hλ)", "Im(hλ)").equal();
     let mut csv = Vec::new();
     for (m, label) in methods {
-        let segs = boundary(m, (-4.5, 3.0), (-3.8, 3.8), 241);
+        let segs = boundary(m, (-4.5, 2.5), (-4.4, 4.4), 281);
         for s in &segs {
             csv.push(format!("{m:?},{},{},{},{}", s[0].0, s[0].1, s[1].0, s[1].1));
         }
@@ -351,8 +352,8 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
     let p = lookup(&a.common.problem)?;
     positive("rtol", &[a.rtol])?;
     positive("atol", &[a.atol])?;
-    if a.max_steps == 0 {
-        return Err("--max-steps must be at least 1".into());
+    if !(1..=10_000_000).contains(&a.max_steps) {
+        return Err(format!("--max-steps must be between 1 and 10000000, got {}", a.max_steps).into());
     }
     prepare(&a.common.out)?;
     let dir = &a.common.out;
@@ -505,7 +506,7 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
             } else {
                 (&a.tolerances[k..=k], &steps[..0])
             };
-            match p.work_precision(&[*m], tols, hs, a.runs) {
+            match p.work_precision(&[*m], tols, hs, a.runs as usize) {
                 Ok(w) => pts.extend(w),
                 Err(e) => {
                     let setting = if *m == MethodKind::Euler { hs[0] } else { tols[0] };

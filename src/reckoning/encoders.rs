@@ -47,12 +47,16 @@ pub struct DiffDrive {
 }
 
 impl DiffDrive {
-    /// Validated geometry: every value finite and positive.
+    /// Validated geometry: every value finite and positive, and the derived distance per
+    /// pulse `πD/N` and curvature scale `1/B` finite and positive (so a separation of
+    /// `1e-320` or a diameter that underflows the per-pulse distance is refused).
     ///
     /// ```
     /// use reckon::reckoning::encoders::DiffDrive;
     /// assert!(DiffDrive::new(0.1, 0.5, 1024.0).is_ok());
     /// assert!(DiffDrive::new(0.1, 0.0, 1024.0).is_err());
+    /// assert!(DiffDrive::new(0.1, 1e-320, 1024.0).is_err()); // 1/B overflows
+    /// assert!(DiffDrive::new(1e-300, 0.5, 1e300).is_err()); // πD/N underflows to 0
     /// ```
     pub fn new(wheel_diameter: f64, wheel_separation: f64, pulses_per_rev: f64) -> Result<Self> {
         for (what, v) in [
@@ -64,11 +68,28 @@ impl DiffDrive {
                 return Err(Error::invalid(what, format!("must be finite and positive, got {v}")));
             }
         }
-        Ok(DiffDrive {
+        let robot = DiffDrive {
             wheel_diameter,
             wheel_separation,
             pulses_per_rev,
-        })
+        };
+        let k = robot.distance_per_pulse();
+        if !k.is_normal() {
+            return Err(Error::invalid(
+                "wheel_diameter",
+                format!(
+                    "the distance per pulse πD/N = π·{wheel_diameter:e}/{pulses_per_rev:e} = {k:e} m is not a usable positive number"
+                ),
+            ));
+        }
+        let inv_b = 1.0 / wheel_separation;
+        if !inv_b.is_normal() {
+            return Err(Error::invalid(
+                "wheel_separation",
+                format!("{wheel_separation:e} m is too small: 1/B = {inv_b:e}"),
+            ));
+        }
+        Ok(robot)
     }
 
     /// Distance per pulse, `πD/N`.
@@ -114,7 +135,9 @@ pub fn advance(pose: &Vector3<f64>, ds: f64, dth: f64, rule: Update) -> Vector3<
 }
 
 /// Dead-reckon from `(t, n_l, n_r)` samples: the pose before the first sample's
-/// increments is `(0, 0, 0)`; returns `(t, pose)` after each sample.
+/// increments is `(0, 0, 0)`; returns `(t, pose)` after each sample, or an error at the
+/// first sample that is not finite, not later than the previous one, or whose pose
+/// overflows.
 ///
 /// ```
 /// use reckon::reckoning::encoders::{odometry, DiffDrive, Update};
@@ -137,6 +160,12 @@ pub fn odometry(robot: &DiffDrive, samples: &[(f64, f64, f64)], rule: Update) ->
         }
         let (ds, dth) = robot.increments(l, r);
         pose = advance(&pose, ds, dth, rule);
+        if pose.iter().any(|v| !v.is_finite()) {
+            return Err(Error::invalid(
+                "samples",
+                format!("the pose after sample {k} is not finite (increments too large)"),
+            ));
+        }
         out.push((t, pose));
     }
     Ok(out)

@@ -1,7 +1,9 @@
 //! `reckon demo`: the classic dead-reckoning scenarios with every method, a convergence
 //! and a stiffness study, and the pitfalls of textbook versions, as `report/index.html`.
+//! Next to the page and its SVG figures, `figures.json` records where each figure's legend
+//! and plotted points landed (SVG pixels, [`super::plot::Layout`]): the legend covers none.
 
-use super::plot::{Plot, Series, Style, write_svg};
+use super::plot::{Layout, Plot, Series, Style, write_svg};
 use super::registry::lookup;
 use super::studies::{history_plot, prepare, stability_files};
 use crate::kalman::confidence_ellipse;
@@ -26,6 +28,8 @@ use pitfalls::pitfalls;
 struct Report {
     html: String,
     figures: usize,
+    /// Where each figure's legend and points landed (written to `figures.json`).
+    layouts: Vec<Layout>,
 }
 
 impl Report {
@@ -33,17 +37,17 @@ impl Report {
         let _ = write!(self.html, "<section><h2>{title}</h2><p>{text}</p>");
     }
     fn figure(&mut self, dir: &Path, file: &str, plot: &Plot, caption: &str) -> Res {
-        write_svg(plot, &dir.join(file), (820, 560))?;
+        self.layouts.push(write_svg(plot, &dir.join(file), (820, 560))?);
         self.figures += 1;
         let _ = write!(
             self.html,
-            "<figure><img src=\"{file}\" alt=\"{}\"><figcaption>{caption}</figcaption></figure>",
+            "<figure><a href=\"{file}\"><img src=\"{file}\" alt=\"{}\"></a><figcaption>{caption}</figcaption></figure>",
             plot.title
         );
         Ok(())
     }
     fn table(&mut self, header: &[&str], rows: &[Vec<String>]) {
-        let _ = write!(self.html, "<table><tr>");
+        let _ = write!(self.html, "<div class=\"scroll\"><table><tr>");
         for h in header {
             let _ = write!(self.html, "<th>{h}</th>");
         }
@@ -55,7 +59,7 @@ impl Report {
             }
             let _ = write!(self.html, "</tr>");
         }
-        let _ = write!(self.html, "</table>");
+        let _ = write!(self.html, "</table></div>");
     }
     fn end(&mut self) {
         self.html.push_str("</section>");
@@ -96,43 +100,57 @@ where
 {
     let Scenario { x0, controls, dt } = sc;
     let t_end = *controls.times().last().unwrap_or(&0.0);
-    let p = Problem::new(&sys, x0, (0.0, t_end)).controls(controls);
-    let exact = p.solve(Exact::new(flow), &Options::default())?;
+    let p = Problem::new(&sys, x0, (0.0, t_end)).controls(controls.clone());
+    let exact = p.solve(Exact::new(flow.clone()), &Options::default())?;
     let ex_end = *exact.last().1;
     let euler = p.solve(ExplicitEuler, &Options::default().fixed(dt))?;
     let ie = p.solve(ImplicitEuler::default(), &Options::default().fixed(dt))?;
-    let rk = p.solve(Dopri5::default(), &Options::default().rtol(1e-6).atol(1e-9))?;
+    let rk = p.solve(Dopri5::default(), &Options::default().rtol(1e-6).atol(1e-9).dense(true))?;
+    // the exact flow evaluated inside every interval (it is exact for any step), and
+    // RK45 from its dense output: both drawn as the curves they are, not as chords
+    let exact_curve = flow_curve(&flow, &exact, &controls, 40);
+    let rk_curve = dense_curve(&rk, 600)?;
     let plot = Plot::new(format!("{name}: x–y trajectory"), "x (m)", "y (m)")
         .equal()
-        .with(Series::new(
-            "exact flow (one step per interval)",
-            xy(&exact),
-            Style::Points,
-        ))
+        .with(
+            Series::new(
+                "exact flow (dots: control times)",
+                exact_curve.iter().map(|(_, x)| (x[0], x[1])).collect(),
+                Style::Line,
+            )
+            .with_markers(xy(&exact)),
+        )
         .with(Series::new(format!("explicit Euler h = {dt}"), xy(&euler), Style::Line))
         .with(Series::new(format!("implicit Euler h = {dt}"), xy(&ie), Style::Line))
-        .with(Series::new("RK45 tol 1e-6", xy(&rk), Style::Line));
+        .with(Series::new(
+            format!("RK45 tol 1e-6 ({} steps)", rk.stats.accepted),
+            rk_curve.iter().map(|(_, x)| (x[0], x[1])).collect(),
+            Style::Line,
+        ));
     let file = format!("{}_xy.svg", slug(name));
     r.figure(
         dir,
         &file,
         &plot,
-        &format!("{name}: the methods against the exact flow; dots are the exact pose at each control time."),
+        &format!("{name}: the methods against the exact flow (black; dots at the control times). The Euler methods are drawn through their step ends (their dense output is linear), RK45 from its 4th-order dense output."),
     )?;
     let theta = Plot::new(format!("{name}: heading θ(t) (unwrapped)"), "t (s)", "θ (rad)")
+        .with(
+            Series::new(
+                "exact flow",
+                exact_curve.iter().map(|(t, x)| (*t, x[2])).collect(),
+                Style::Line,
+            )
+            .with_markers(exact.t.iter().zip(&exact.x).map(|(t, x)| (*t, x[2])).collect()),
+        )
         .with(Series::new(
-            "exact",
-            exact.t.iter().zip(&exact.x).map(|(t, x)| (*t, x[2])).collect(),
-            Style::Points,
-        ))
-        .with(Series::new(
-            "explicit Euler",
+            format!("explicit Euler h = {dt}"),
             euler.t.iter().zip(&euler.x).map(|(t, x)| (*t, x[2])).collect(),
             Style::Line,
         ))
         .with(Series::new(
-            "RK45",
-            rk.t.iter().zip(&rk.x).map(|(t, x)| (*t, x[2])).collect(),
+            "RK45 tol 1e-6",
+            rk_curve.iter().map(|(t, x)| (*t, x[2])).collect(),
             Style::Line,
         ));
     r.figure(
@@ -144,13 +162,52 @@ where
     r.table(
         &["method", "end position error (m)", "steps", "rhs evals"],
         &[
-            err_row("exact flow", &exact, &ex_end),
+            {
+                let mut row = err_row("exact flow", &exact, &ex_end);
+                row[1] = "reference".to_string();
+                row
+            },
             err_row(&format!("explicit Euler h = {dt}"), &euler, &ex_end),
             err_row(&format!("implicit Euler h = {dt}"), &ie, &ex_end),
             err_row("RK45 tol 1e-6", &rk, &ex_end),
         ],
     );
     Ok(())
+}
+
+/// The exact flow inside every step of `sol` (one step per control interval), `per_step`
+/// points per step: `(t, x)`.
+fn flow_curve<const N: usize>(
+    flow: &impl Flow<nalgebra::Const<N>>,
+    sol: &Solution<nalgebra::Const<N>>,
+    controls: &Controls,
+    per_step: usize,
+) -> Vec<(f64, SVector<f64, N>)> {
+    let mut out = vec![(sol.t[0], sol.x[0])];
+    let times = controls.times();
+    for i in 0..sol.t.len().saturating_sub(1) {
+        let (t0, h) = (sol.t[i], sol.t[i + 1] - sol.t[i]);
+        // the input held on [t0, t1): the last control time at or before t0
+        let k = times.iter().rposition(|&tc| tc <= t0).unwrap_or(0);
+        let u = controls.values(k).unwrap_or_default();
+        for j in 1..=per_step {
+            let s = h * j as f64 / per_step as f64;
+            let mut x = SVector::<f64, N>::zeros();
+            flow.flow(t0, &sol.x[i], u, s, &mut x);
+            out.push((t0 + s, x));
+        }
+    }
+    out
+}
+
+/// `sol` on `n` + 1 equally spaced times and at its step ends, from its dense output.
+fn dense_curve<const N: usize>(sol: &Solution<nalgebra::Const<N>>, n: usize) -> Res<Vec<(f64, SVector<f64, N>)>> {
+    let (t0, t1) = (sol.t[0], *sol.t.last().unwrap_or(&sol.t[0]));
+    let mut ts: Vec<f64> = (0..=n).map(|k| t0 + (t1 - t0) * k as f64 / n as f64).collect();
+    ts.extend(&sol.t);
+    ts.sort_by(f64::total_cmp);
+    ts.dedup();
+    ts.into_iter().map(|t| Ok((t, sol.at(t)?))).collect()
 }
 
 /// Stair steering sampled every T = 0.1 s, or α = sin t sampled the same way.
@@ -177,8 +234,9 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     let mut r = Report {
         html: String::new(),
         figures: 0,
+        layouts: Vec::new(),
     };
-    r.html.push_str("<!doctype html><html><head><meta charset=\"utf-8\"><title>reckon report</title><style>body{font-family:sans-serif;max-width:900px;margin:2em auto;line-height:1.45}img{max-width:100%;border:1px solid #ddd}table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right}figcaption{color:#444;font-size:90%}</style></head><body><h1>reckon report</h1><p>Every method on the classic dead-reckoning scenarios, a convergence and a stiffness study, and where the textbook versions of these computations go wrong. Generated by <code>reckon demo</code>.</p>");
+    r.html.push_str("<!doctype html><html><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width, initial-scale=1\"><title>reckon report</title><style>*{box-sizing:border-box}body{font-family:sans-serif;max-width:900px;margin:0 auto;padding:1.5em 1em;line-height:1.45;overflow-wrap:break-word}figure{margin:1.2em 0}img{display:block;max-width:100%;height:auto;border:1px solid #ddd}.scroll{overflow-x:auto;-webkit-overflow-scrolling:touch;margin:1em 0}table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right;white-space:nowrap}figcaption{color:#444;font-size:90%}@media (max-width:600px){body{padding:1em 0.75em}h1{font-size:1.6em}h2{font-size:1.25em}}</style></head><body><h1>reckon report</h1><p>Every method on the classic dead-reckoning scenarios, a convergence and a stiffness study, and where the textbook versions of these computations go wrong. Generated by <code>reckon demo</code>.</p>");
 
     // bicycle: stair steering and α = sin t, L = 0.5, v = 2, T = 0.1, 3 s and 15 s
     for (stair, t_end) in [(true, 3.0), (false, 3.0), (false, if fast { 6.0 } else { 15.0 })] {
@@ -224,7 +282,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         vec![0.0, 2.0, 4.0, 6.0],
         vec![vec![5.0, 0.2], vec![5.0, -0.3], vec![4.0, 0.1], vec![0.0, 0.0]],
     )?;
-    r.section("Car-like vehicle with steering rate", "L = 2.5 m; the steering angle γ is a state driven by the held steering rate. The 'exact' method here is the midpoint-steering flow (order 2): the arc with γ held at its midpoint value.");
+    r.section("Car-like vehicle with steering rate", "L = 2.5 m; the steering angle γ is a state driven by the held steering rate. The exact flow is exact to 1e-12 for any step: γ(s) = γ₀ + ωs and the heading θ(s) = θ₀ − (v/(Lω))·ln(cos γ(s)/cos γ₀) in closed form, the positions by Gauss–Kronrod quadrature of v·cos θ and v·sin θ; it is the reference of the table.");
     vehicle_section(
         &mut r,
         dir,
@@ -260,39 +318,75 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
             sc.landmarks.iter().map(|m| (m[0], m[1])).collect(),
             Style::Points,
         ));
+    // the 90% ellipses are a metre or two across on a survey of a few hundred metres:
+    // drawn ENLARGED here (the factor is in the legend and the caption), and at true
+    // scale, centred on each estimate's error, in the next figure
+    const ENLARGE: f64 = 10.0;
+    let chi2 = -2.0 * (1.0f64 - 0.9).ln();
+    let ellipse = |c: (f64, f64), a: f64, b: f64, ang: f64| -> Vec<(f64, f64)> {
+        (0..=90)
+            .map(|k| {
+                let s = k as f64 / 90.0 * std::f64::consts::TAU;
+                let (u, w) = (a * s.cos(), b * s.sin());
+                (c.0 + u * ang.cos() - w * ang.sin(), c.1 + u * ang.sin() + w * ang.cos())
+            })
+            .collect()
+    };
     let mut ellipses = Vec::new();
+    let mut zoom = Plot::new(
+        "SLAM: 90% ellipses at true scale, centred on each landmark's estimate error",
+        "estimate − truth, x (m)",
+        "estimate − truth, y (m)",
+    )
+    .equal();
     let mut rows = Vec::new();
+    let mut inside = 0;
     for (j, ((m, p), truth)) in out.landmarks.iter().zip(&sc.landmarks).enumerate() {
         let (a, b, ang) = confidence_ellipse(p, 0.9);
-        let pts: Vec<(f64, f64)> = (0..=60)
-            .map(|k| {
-                let s = k as f64 / 60.0 * std::f64::consts::TAU;
-                let (c, d) = (a * s.cos(), b * s.sin());
-                (
-                    m[0] + c * ang.cos() - d * ang.sin(),
-                    m[1] + c * ang.sin() + d * ang.cos(),
-                )
-            })
-            .collect();
-        ellipses.extend(pts.windows(2).flat_map(|w| [w[0], w[1]]));
+        let big = ellipse((m[0], m[1]), ENLARGE * a, ENLARGE * b, ang);
+        ellipses.extend(big.windows(2).flat_map(|w| [w[0], w[1]]));
+        let e = m - truth;
+        zoom = zoom.with(
+            Series::new(format!("landmark {j}"), ellipse((e[0], e[1]), a, b, ang), Style::Line)
+                .with_markers(vec![(e[0], e[1])]),
+        );
+        let d2 = crate::kalman::mahalanobis2(truth, m, p);
+        if d2 <= chi2 {
+            inside += 1;
+        }
         rows.push(vec![
             j.to_string(),
             format!("({:.2}, {:.2})", truth[0], truth[1]),
             format!("({:.2}, {:.2})", m[0], m[1]),
             format!("{:.3}", (m - truth).norm()),
             format!("{:.3} × {:.3}", a, b),
+            format!("{:.2} ({})", d2, if d2 <= chi2 { "inside" } else { "outside" }),
         ]);
     }
-    plot = plot.with(Series::new(
-        "90% ellipses (estimated landmarks)",
-        ellipses,
-        Style::Segments,
-    ));
+    zoom = zoom.with(Series::new("truth (the origin)", vec![(0.0, 0.0)], Style::Points));
+    plot = plot
+        .with(Series::new(
+            "estimated landmarks",
+            out.landmarks.iter().map(|(m, _)| (m[0], m[1])).collect(),
+            Style::Points,
+        ))
+        .with(Series::new(
+            format!("90% ellipses, drawn {ENLARGE}× enlarged"),
+            ellipses,
+            Style::Segments,
+        ));
+    let n = out.landmarks.len();
     r.figure(
         dir,
         "slam.svg",
         &plot,
-        "The estimate stays close to the truth; every landmark lies inside its ellipse.",
+        &format!("The estimate stays close to the truth. The 90% confidence ellipses of the landmark estimates are drawn {ENLARGE}× enlarged about each estimate so that they can be seen at this scale (true semi-axes in the table); {inside} of the {n} true landmarks lie inside their (true-size) 90% ellipse."),
+    )?;
+    r.figure(
+        dir,
+        "slam_ellipses.svg",
+        &zoom,
+        &format!("The same 90% ellipses at true scale, each centred on its landmark's estimation error (estimate − truth, the dot), so that the truth is the origin: the origin lies inside {inside} of the {n} ellipses (squared Mahalanobis distance ≤ −2 ln 0.1 = {chi2:.3}, last column of the table)."),
     )?;
     r.table(
         &[
@@ -301,6 +395,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
             "estimate (m)",
             "error (m)",
             "90% semi-axes (m)",
+            "truth's d² (≤ 4.605 inside)",
         ],
         &rows,
     );
@@ -329,7 +424,13 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         ..Default::default()
     };
     r.section("UMBmark: the bidirectional square", "A 4 m square driven clockwise and counter-clockwise with a 0.2% wheel-diameter mismatch and a 1% wheelbase error. Odometry believes it returned to the start; the true path (solid) ends elsewhere, and the two directions separate the two systematic errors (Borenstein &amp; Feng).");
-    let mut plot = Plot::new("UMBmark: true paths (odometry believes the square)", "x (m)", "y (m)").equal();
+    let mut plot = Plot::new("UMBmark: true paths (odometry believes the square)", "x (m)", "y (m)")
+        .equal()
+        .with(Series::new(
+            "start (odometry's end for both runs)",
+            vec![(0.0, 0.0)],
+            Style::Points,
+        ));
     let mut rows = Vec::new();
     for (cw, name) in [(false, "counter-clockwise"), (true, "clockwise")] {
         let run = simulate(&robot, &e, &square(4.0, cw, 0.4, 0.5), 0.01, Vector3::zeros());
@@ -346,13 +447,23 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
                 Style::Line,
             ));
         let end = run.truth[run.truth.len() - 1];
+        plot = plot.with(Series::new(
+            format!("{name}: true return point"),
+            vec![(end[0], end[1])],
+            Style::Points,
+        ));
         rows.push(vec![
             name.to_string(),
             format!("({:.3}, {:.3})", end[0], end[1]),
             format!("{:.3}", end.xy().norm()),
         ]);
     }
-    r.figure(dir, "umbmark.svg", &plot, "The true return points of the two runs.")?;
+    r.figure(
+        dir,
+        "umbmark.svg",
+        &plot,
+        &format!("True paths and odometry for both directions; the dots are the start (where odometry believes both runs end) and the true return point of each run: {} m from the start counter-clockwise, {} m clockwise (a dot that close sits on the start's at this scale).", rows[0][2], rows[1][2]),
+    )?;
     r.table(&["direction", "true end (m)", "return error (m)"], &rows);
     r.end();
 
@@ -506,11 +617,14 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         "RK45 (stopped at its step limit) against implicit Euler.",
     )?;
     let dahl = stability_files(dir)?;
-    self::figure_existing(
-        &mut r,
+    // redrawn over a window that contains every boundary whole (DP5's region reaches
+    // |Im z| = 3.85), replacing the SVG of stability_files
+    r.figure(
+        dir,
         "stability_regions.svg",
-        "Boundaries |R(hλ)| = 1: explicit Euler (disk around −1), DP5 (stable inside), implicit Euler (stable outside the disk around +1).",
-    );
+        &stability_plot(),
+        "Boundaries |R(hλ)| = 1: explicit Euler (disk around −1), DP5 (stable inside the main region and its two small islands near the imaginary axis), implicit Euler (stable outside the disk around +1).",
+    )?;
     r.table(
         &["λ", "located threshold h", "2/|λ|", "relative difference"],
         &dahl
@@ -560,17 +674,30 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     pitfalls(&mut r, dir)?;
     r.end();
     r.html.push_str("</body></html>\n");
+    std::fs::write(dir.join("figures.json"), serde_json::to_string(&r.layouts)?)
+        .map_err(|e| format!("cannot write {}: {e}", dir.join("figures.json").display()))?;
     std::fs::write(dir.join("index.html"), &r.html)
         .map_err(|e| format!("cannot write {}: {e}", dir.join("index.html").display()))?;
     Ok(r.figures)
 }
 
-fn figure_existing(r: &mut Report, file: &str, caption: &str) {
-    r.figures += 1;
-    let _ = write!(
-        r.html,
-        "<figure><img src=\"{file}\" alt=\"{file}\"><figcaption>{caption}</figcaption></figure>"
-    );
+/// The stability-region boundaries on a window that contains each of them whole.
+fn stability_plot() -> Plot {
+    use crate::studies::stability::{StabilityOf, boundary};
+    let mut plot = Plot::new("Linear stability regions |R(hλ)| ≤ 1", "Re(hλ)", "Im(hλ)").equal();
+    for (m, label) in [
+        (StabilityOf::ExplicitEuler, "explicit Euler |1 + z| = 1"),
+        (StabilityOf::ImplicitEuler, "implicit Euler |1/(1 − z)| = 1"),
+        (StabilityOf::Dopri5, "DP5 (RK45) |R(z)| = 1"),
+    ] {
+        let segs = boundary(m, (-4.5, 2.5), (-4.4, 4.4), 281);
+        plot = plot.with(Series::new(
+            label,
+            segs.iter().flat_map(|s| [s[0], s[1]]).collect(),
+            Style::Segments,
+        ));
+    }
+    plot
 }
 
 /// A file-name-safe version of a title: ASCII letters and digits, words joined by '-'.

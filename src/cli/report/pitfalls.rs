@@ -1,6 +1,6 @@
 //! Where textbook versions of these computations go wrong, each measured.
 
-use super::{Report, Res, bicycle_controls, xy};
+use super::{Report, Res, bicycle_controls, flow_curve, xy};
 use crate::cli::plot::{Plot, Series, Style};
 use crate::methods::{Exact, ExplicitEuler};
 use crate::models::{bicycle, unicycle};
@@ -102,7 +102,17 @@ pub(super) fn pitfalls(r: &mut Report, dir: &Path) -> Res {
         "y (m)",
     )
     .equal()
-    .with(Series::new("exact", xy(&exact), Style::Line))
+    .with(
+        Series::new(
+            "exact flow",
+            flow_curve(&bicycle::flow(0.5), &exact, &c, 20)
+                .iter()
+                .map(|(_, x)| (x[0], x[1]))
+                .collect(),
+            Style::Line,
+        )
+        .with_markers(xy(&exact)),
+    )
     .with(Series::new("u[k] at step k (wrong)", wrong, Style::Line))
     .with(Series::new(
         "u(t) held by time, Euler h = 0.05",

@@ -361,15 +361,7 @@ where
     #[cold]
     #[inline(never)]
     fn wrong_length(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
-        self.fault.get_or_insert(Error::invalid(
-            "model",
-            format!(
-                "f returned {} components for a state of {} (at t = {})",
-                dx.len(),
-                x.len(),
-                crate::integrator::brief(t)
-            ),
-        ));
+        self.fault.get_or_insert(length_error(dx.len(), x.len(), t));
         let (r, c) = x.shape_generic();
         *dx = OVector::from_element_generic(r, c, f64::NAN);
     }
@@ -409,18 +401,19 @@ where
     fn length_error(&mut self, t: f64, x: &OVector<f64, D>) -> Option<Error> {
         let mut dx = x.clone();
         self.sys.rhs(t, x, &self.u, &mut dx);
-        (dx.len() != x.len()).then(|| {
-            Error::invalid(
-                "model",
-                format!(
-                    "f returned {} components for a state of {} (at t = {})",
-                    dx.len(),
-                    x.len(),
-                    crate::integrator::brief(t)
-                ),
-            )
-        })
+        (dx.len() != x.len()).then(|| length_error(dx.len(), x.len(), t))
     }
+}
+
+/// The model's output has `got` components for a state of `n`.
+fn length_error(got: usize, n: usize, t: f64) -> Error {
+    Error::invalid(
+        "model",
+        format!(
+            "f returned {got} components for a state of {n} (at t = {})",
+            crate::integrator::brief(t)
+        ),
+    )
 }
 
 /// `Ok` when every value is finite, else [`Error::NonFinite`] naming the first bad one.

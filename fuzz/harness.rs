@@ -260,20 +260,8 @@ fn list_of(u: &mut Unstructured, words: &[&str]) -> Result<String> {
 // ---------------------------------------------------------------------------------------
 // cli_args: argument vectors from the real flag set of each command
 
-const PROBLEMS: [&str; 12] = [
-    "rotation-decay",
-    "dahlquist",
-    "sin-u",
-    "stiff-cosine",
-    "arenstorf",
-    "lorenz",
-    "unicycle",
-    "bicycle",
-    "carlike",
-    "van-der-pol",
-    "robertson",
-    "brusselator",
-];
+/// The study problems the commands know (the registry's own list).
+const PROBLEMS: [&str; 12] = reckon::cli::registry::NAMES;
 const STUDY_METHODS: [&str; 4] = ["euler", "implicit-euler", "rk45", "exact"];
 
 /// An input file: fuzzer bytes, or a CSV with a plausible header and generated rows.

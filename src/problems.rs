@@ -76,6 +76,65 @@ pub fn robertson() -> impl crate::DualSystem<Const<3>> + Clone {
     ])
 }
 
+/// OREGO, the Oregonator (Test Set `orego.f`): `y1' = s(y2 + y1(1 − q·y1 − y2))`,
+/// `y2' = (y3 − (1 + y1)·y2)/s`, `y3' = w(y1 − y3)` with `s = 77.27`, `q = 8.375e-6`,
+/// `w = 0.161`, `y0 = (1, 2, 3)`; reference at `t = 360` in [`OREGO_REF_360`].
+pub fn orego() -> impl crate::DualSystem<Const<3>> + Clone {
+    const S_: f64 = 77.27;
+    const Q: f64 = 8.375e-6;
+    const W: f64 = 0.161;
+    crate::model!(|_t, y: [S; 3]| vector![
+        (y[1].clone() + y[0].clone() * (-y[0].clone() * Q - y[1].clone() + 1.0)) * S_,
+        (y[2].clone() - (y[0].clone() + 1.0) * y[1].clone()) * (1.0 / S_),
+        (y[0].clone() - y[2].clone()) * W
+    ])
+}
+
+/// OREGO's state at `t = 360` (Test Set `orego.f`; the report's table agrees to 12.8 digits).
+pub const OREGO_REF_360: [f64; 3] = [1.000814870318523, 1228.178521549917, 132.0554942846706];
+
+/// HIRES, "high irradiance responses" of photomorphogenesis (Test Set `hires.f`), 8 states,
+/// `y0 = (1, 0, 0, 0, 0, 0, 0, 0.0057)`; reference at `t = 321.8122` in [`HIRES_REF`].
+pub fn hires() -> impl crate::DualSystem<Const<8>> + Clone {
+    crate::model!(|_t, y: [S; 8]| vector![
+        y[0].clone() * -1.71 + y[1].clone() * 0.43 + y[2].clone() * 8.32 + 0.0007,
+        y[0].clone() * 1.71 - y[1].clone() * 8.75,
+        y[2].clone() * -10.03 + y[3].clone() * 0.43 + y[4].clone() * 0.035,
+        y[1].clone() * 8.32 + y[2].clone() * 1.71 - y[3].clone() * 1.12,
+        y[4].clone() * -1.745 + (y[5].clone() + y[6].clone()) * 0.43,
+        -(y[5].clone() * y[7].clone() * 280.0) + y[3].clone() * 0.69 + y[4].clone() * 1.71 - y[5].clone() * 0.43
+            + y[6].clone() * 0.69,
+        y[5].clone() * y[7].clone() * 280.0 - y[6].clone() * 1.81,
+        -(y[5].clone() * y[7].clone() * 280.0) + y[6].clone() * 1.81
+    ])
+}
+
+/// HIRES initial state.
+pub fn hires_y0() -> nalgebra::SVector<f64, 8> {
+    nalgebra::SVector::<f64, 8>::from([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0057])
+}
+
+/// HIRES end time of the Test Set.
+pub const HIRES_T: f64 = 321.8122;
+
+/// HIRES state at [`HIRES_T`] (Test Set Table II.1.1).
+pub const HIRES_REF: [f64; 8] = [
+    7.371312573325668e-4,
+    1.442485726316185e-4,
+    5.888729740967575e-5,
+    1.175651343283149e-3,
+    2.386356198831331e-3,
+    6.238968252742796e-3,
+    2.849998395185769e-3,
+    2.850001604814231e-3,
+];
+
+/// Robertson's state at `t = 1e11` (Test Set `rober.f`).
+pub const ROBERTSON_REF_1E11: [f64; 3] = [2.083340149701255e-8, 8.333360770334713e-14, 0.9999999791665050];
+
+/// Van der Pol μ = 1000 from `(2, 0)` at `t = 2000` (Test Set `vdpolm.f`).
+pub const VDPOLM_REF_2000: [f64; 2] = [1.706167732170469, -0.8928097010248125e-3];
+
 /// Lorenz with σ = 10, ρ = 28, β = 8/3.
 pub fn lorenz() -> impl crate::DualSystem<Const<3>> + Clone {
     crate::model!(|_t, y: [S; 3]| vector![

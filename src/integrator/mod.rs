@@ -463,10 +463,10 @@ where
     #[inline]
     fn reject(&mut self, h: f64, err: f64) {
         self.f.stats.rejected += 1;
-        let fac = if err.is_finite() {
-            self.controller.reject(err)
-        } else {
-            self.controller.min_factor
+        let fac = match self.method.step_factor(false, err) {
+            Some(fac) => fac,
+            None if err.is_finite() => self.controller.reject(err),
+            None => self.controller.min_factor,
         };
         self.h = h.abs() * fac;
         self.last_rejected = true;
@@ -475,7 +475,10 @@ where
     /// The next step size after an accepted step of size `h` with estimate `err`.
     #[inline]
     fn propose(&mut self, h: f64, err: f64, landed: bool) {
-        let fac = self.controller.accept(err);
+        let fac = match self.method.step_factor(true, err) {
+            Some(fac) => fac,
+            None => self.controller.accept(err),
+        };
         let proposal = self.h.abs();
         let mut next = h.abs() * fac;
         if self.last_rejected {

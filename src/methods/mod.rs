@@ -128,6 +128,13 @@ where
             },
         }
     }
+    /// A method that picks its own next step (variable order: BDF compares the error
+    /// estimates of neighbouring orders) returns the factor for the next `|h|` after an
+    /// accepted step (`accepted`, called after [`accept`](Method::accept)) or a rejected
+    /// one with estimate `err`; `None` leaves it to the driver's [`controller`](Method::controller).
+    fn step_factor(&mut self, _accepted: bool, _err: f64) -> Option<f64> {
+        None
+    }
     /// Estimate `|h·λ|` of the dominant eigenvalue for the step just taken
     /// (before `accept`), for stiffness detection; `None` if the method has none.
     fn stiffness(&self, _h: f64, _x_new: &OVector<f64, D>) -> Option<f64> {

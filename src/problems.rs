@@ -130,7 +130,7 @@ pub const HIRES_REF: [f64; 8] = [
 ];
 
 /// Robertson's state at `t = 1e11` (Test Set `rober.f`).
-pub const ROBERTSON_REF_1E11: [f64; 3] = [2.083340149701255e-8, 8.333360770334713e-14, 0.9999999791665050];
+pub const ROBERTSON_REF_1E11: [f64; 3] = [2.083340149701255e-8, 8.333360770334713e-14, 0.999_999_979_166_505];
 
 /// Van der Pol μ = 1000 from `(2, 0)` at `t = 2000` (Test Set `vdpolm.f`).
 pub const VDPOLM_REF_2000: [f64; 2] = [1.706167732170469, -0.8928097010248125e-3];

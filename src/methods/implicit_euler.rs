@@ -1,13 +1,13 @@
 //! Implicit (backward) Euler solved by simplified Newton with an exact Jacobian.
 
-use super::newton::{self, Solve, Work};
-use super::{Failure, Method, Outcome};
+use super::newton::{self, Goal, Newton};
+use super::{Method, Outcome};
 use crate::control::{Controller, Weights};
 use crate::error::Result;
 use crate::linalg::{Lu, LuDim};
 use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, OMatrix, OVector};
+use nalgebra::{DefaultAllocator, OVector};
 
 /// Newton settings for implicit steps.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -30,11 +30,14 @@ impl Default for NewtonOptions {
 
 /// Implicit Euler: solve `x₁ = x₀ + h·f(t₀ + h, x₁)` by simplified Newton.
 ///
-/// The iteration matrix `M = I − h·J` uses the exact Jacobian `J = ∂f/∂x` from
-/// automatic differentiation. `J` and the LU of `M` are kept across iterations and
-/// across steps while Newton converges (the LU is refactored when `h` changes); on
-/// failure `J` is refreshed at the last Newton iterate, and if that fails too the step is
-/// handed back to the driver to shrink.
+/// Newton starts from the linear extrapolation of the last step,
+/// `x₁⁽⁰⁾ = x₀ + (h/h₋₁)(x₀ − x₋₁)` (from `x₀` on the first step of a control interval),
+/// and iterates with `M = I − h·J`, `J = ∂f/∂x` exact from automatic differentiation.
+/// The solver is the one [`Bdf`](super::Bdf) uses (implicit Euler is its order-1 member
+/// without the NDF term): `J` is kept across steps and refreshed only when Newton fails,
+/// at the last iterate; the LU of `M` is refactored only when `h` moved by more than
+/// [`LU_REUSE`](super::newton::LU_REUSE) = 30 % since it was factored. If a fresh `J`
+/// fails too, the step is handed back to the driver to shrink.
 ///
 /// **Error estimate** (adaptive mode). The local error of backward Euler is
 /// `−h²/2·x'' + O(h³)`; `(h/2)(f(t₁,x₁) − f(t₀,x₀))` estimates it, and since Newton
@@ -60,14 +63,22 @@ where
 {
     /// Newton settings.
     pub newton: NewtonOptions,
-    j: Option<OMatrix<f64, D, D>>,
-    m: Option<OMatrix<f64, D, D>>,
-    lu: Option<D::Lu>,
-    lu_h: f64,
-    j_current: bool,
-    j_valid: bool,
-    fx: Option<OVector<f64, D>>,
-    dx: Option<OVector<f64, D>>,
+    solver: Option<Work<D>>,
+}
+
+struct Work<D: LuDim>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    newton: Newton<D>,
+    y_p: OVector<f64, D>,
+    psi: OVector<f64, D>,
+    d: OVector<f64, D>,
+    fx: OVector<f64, D>,
+    /// `x₀ − x₋₁` and `h₋₁` of the last accepted step, when it is in this interval.
+    last: Option<(OVector<f64, D>, f64)>,
+    /// The step just attempted, `x₁ − x₀` and `h`, kept on [`accept`](Method::accept).
+    pending: (OVector<f64, D>, f64),
 }
 
 impl<D: LuDim> Default for ImplicitEuler<D>
@@ -85,49 +96,7 @@ where
 {
     /// Implicit Euler with the given Newton settings.
     pub fn new(newton: NewtonOptions) -> Self {
-        ImplicitEuler {
-            newton,
-            j: None,
-            m: None,
-            lu: None,
-            lu_h: f64::NAN,
-            j_current: false,
-            j_valid: false,
-            fx: None,
-            dx: None,
-        }
-    }
-
-    fn refresh_jacobian<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t: f64, x: &OVector<f64, D>) -> Result<()> {
-        if let Some(j) = self.j.as_mut() {
-            f.jacobian(t, x, j)?;
-        }
-        self.j_valid = true;
-        self.j_current = true;
-        self.lu = None;
-        Ok(())
-    }
-
-    /// Factor `I − h·J` unless the LU for this `h` is at hand; `false` if singular.
-    /// A fixed-step grid `t₀ + k·h` gives step sizes that differ in the last bits; those
-    /// reuse the LU (simplified Newton only needs an approximate `M`, and its convergence
-    /// test guards the rest).
-    fn factor(&mut self, stats: &mut crate::Stats, h: f64) -> bool {
-        if self.lu.is_some() && (h - self.lu_h).abs() <= 1e-9 * h.abs() {
-            return true;
-        }
-        let (Some(j), Some(m)) = (self.j.as_ref(), self.m.as_mut()) else {
-            return false;
-        };
-        m.copy_from(j);
-        *m *= -h;
-        for i in 0..m.nrows() {
-            m[(i, i)] += 1.0;
-        }
-        stats.lu_decompositions += 1;
-        self.lu = D::Lu::factor(m);
-        self.lu_h = h;
-        self.lu.is_some()
+        ImplicitEuler { newton, solver: None }
     }
 }
 
@@ -150,13 +119,15 @@ where
         Controller::new(1, 0.0).with_hold(1.0, 1.2)
     }
     fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, x0: &OVector<f64, D>) -> Result<()> {
-        let (r, _) = x0.shape_generic();
-        self.j = Some(OMatrix::<f64, D, D>::zeros_generic(r, r));
-        self.m = Some(OMatrix::<f64, D, D>::zeros_generic(r, r));
-        self.fx = Some(x0.clone());
-        self.dx = Some(x0.clone());
-        self.j_valid = false;
-        self.lu = None;
+        self.solver = Some(Work {
+            newton: Newton::new(x0),
+            y_p: x0.clone(),
+            psi: x0.clone(),
+            d: x0.clone(),
+            fx: x0.clone(),
+            last: None,
+            pending: (x0.clone(), 0.0),
+        });
         Ok(())
     }
     fn step<S: System<D>>(
@@ -169,71 +140,61 @@ where
         w: &Weights<D>,
         adaptive: bool,
     ) -> Result<Outcome> {
-        if !self.j_valid {
-            self.refresh_jacobian(f, t, x)?;
-        }
-        let rtol = w.rtol.iter().copied().fold(f64::INFINITY, f64::min).max(f64::EPSILON);
-        let tol = self
-            .newton
-            .tol
-            .unwrap_or_else(|| (10.0 * f64::EPSILON / rtol).max(0.03f64.min(rtol.sqrt())));
-        let mut refreshed_at_iterate = false;
-        loop {
-            if !self.factor(&mut f.stats, h) {
-                if self.j_current {
-                    return Ok(Outcome::Retry(Failure::Singular));
-                }
-                self.refresh_jacobian(f, t, x)?;
-                continue;
-            }
-            let (Some(lu), Some(fx), Some(dx)) = (self.lu.as_ref(), self.fx.as_mut(), self.dx.as_mut()) else {
-                return Err(crate::Error::invalid(
-                    "method",
-                    "ImplicitEuler::step called before init",
-                ));
-            };
-            x_new.copy_from(x);
-            let work = Work { fx, dx };
-            match newton::solve(f, lu, t + h, x, h, x_new, w, tol, self.newton.max_iters, work)? {
-                Solve::Converged => break,
-                Solve::Failed { iterations, residual } => {
-                    // refresh J where Newton got to (closer to x₁ than x₀ is), once per
-                    // step; then give the step back to the driver to shrink
-                    let iterate_ok = x_new.iter().all(|v| v.is_finite()) && *x_new != *x;
-                    if self.j_current && (refreshed_at_iterate || !iterate_ok) {
-                        return Ok(Outcome::Retry(Failure::Newton { iterations, residual }));
-                    }
-                    if iterate_ok {
-                        let at = x_new.clone();
-                        self.refresh_jacobian(f, t + h, &at)?;
-                        refreshed_at_iterate = true;
-                    } else {
-                        self.refresh_jacobian(f, t, x)?;
-                    }
-                }
-            }
-        }
-        self.j_current = false;
-        if !adaptive {
-            return Ok(Outcome::Done { err: 0.0 });
-        }
-        let (Some(lu), Some(fx)) = (self.lu.as_ref(), self.fx.as_mut()) else {
+        let Some(s) = self.solver.as_mut() else {
             return Err(crate::Error::invalid(
                 "method",
                 "ImplicitEuler::step called before init",
             ));
         };
-        f.rhs(t, x, fx)?;
-        for i in 0..x.len() {
-            fx[i] = 0.5 * (x_new[i] - x[i] - h * fx[i]);
+        s.newton.ensure_jacobian(f, t, x)?;
+        // predictor: the last step's slope carried on; ψ = y_p − x₀ makes the Newton
+        // equation c·f(t₁, y_p + d) − ψ − d = 0 the implicit Euler equation with c = h
+        s.y_p.copy_from(x);
+        if let Some((dx, h_prev)) = s.last.as_ref() {
+            s.y_p.axpy(h / h_prev, dx, 1.0);
         }
-        lu.solve_in_place(fx);
+        s.psi.copy_from(&s.y_p);
+        s.psi -= x;
+        let goal = Goal {
+            tol: self.newton.tol.unwrap_or_else(|| newton::default_tol(w)),
+            max_iters: self.newton.max_iters,
+        };
+        if let Some(why) = s.newton.solve(f, t + h, &s.y_p, h, &s.psi, x_new, &mut s.d, w, &goal)? {
+            return Ok(Outcome::Retry(why));
+        }
+        s.pending.0.copy_from(x_new);
+        s.pending.0 -= x;
+        s.pending.1 = h;
+        if !adaptive {
+            return Ok(Outcome::Done { err: 0.0 });
+        }
+        f.rhs(t, x, &mut s.fx)?;
+        for i in 0..x.len() {
+            s.fx[i] = 0.5 * (x_new[i] - x[i] - h * s.fx[i]);
+        }
+        if let Some((lu, _)) = s.newton.lu() {
+            lu.solve_in_place(&mut s.fx);
+        }
         Ok(Outcome::Done {
-            err: w.norm(fx, x, x_new),
+            err: w.norm(&s.fx, x, x_new),
         })
     }
+    fn accept(&mut self) {
+        if let Some(s) = self.solver.as_mut() {
+            match s.last.as_mut() {
+                Some(last) => {
+                    last.0.copy_from(&s.pending.0);
+                    last.1 = s.pending.1;
+                }
+                None => s.last = Some(s.pending.clone()),
+            }
+        }
+    }
     fn reset(&mut self) {
-        // the inputs jumped: the Jacobian belongs to the old interval
-        self.j_valid = false;
+        // the inputs jumped: the Jacobian and the slope belong to the old interval
+        if let Some(s) = self.solver.as_mut() {
+            s.newton.invalidate();
+            s.last = None;
+        }
     }
 }

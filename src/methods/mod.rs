@@ -8,12 +8,14 @@ use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
+pub mod bdf;
 pub mod dopri5;
 pub mod exact;
 pub mod explicit_euler;
 pub mod implicit_euler;
-mod newton;
+pub mod newton;
 
+pub use bdf::Bdf;
 pub use dopri5::Dopri5;
 pub use exact::{Exact, Flow};
 pub use explicit_euler::ExplicitEuler;

@@ -1,59 +1,232 @@
-//! Simplified Newton for `G(x₁) = x₁ − x₀ − h·f(t₁, x₁) = 0` with a frozen iteration
-//! matrix `M = I − h·J` (scipy `_ivp/bdf.py::solve_bdf_system`, Hairer–Wanner ODE II §IV.8).
+//! The Newton solver shared by the implicit multistep family ([`ImplicitEuler`](super::ImplicitEuler)
+//! and [`Bdf`](super::Bdf)): find the correction `d` that solves
+//!
+//! `c·f(t₁, y_p + d) − ψ − d = 0`,
+//!
+//! where `y_p` is the method's predictor, `c = h/α` and `ψ` collect the known past
+//! (scipy `_ivp/bdf.py`, Shampine & Reichelt 1997). Implicit Euler is `c = h`,
+//! `ψ = y_p − x₀`; BDF/NDF of order `k` is `c = h/α_k`, `ψ = Σ_{j≤k} γ_j ∇ʲ y_n / α_k`.
+//!
+//! Simplified Newton: the iteration matrix `M = I − c·J` is frozen. `J` (the exact
+//! autodiff Jacobian) is kept across steps and refreshed only when Newton fails to
+//! converge; the LU of `M` is kept while `c` stays within [`LU_REUSE`] of the value it
+//! was factored at (CVODE's rule), and each correction is then scaled by
+//! `2/(1 + c/c_LU)` (CVODE's `crate`), which restores the contraction on stiff
+//! components that a stale `c` would slow.
 
+use super::Failure;
 use crate::control::Weights;
 use crate::error::Result;
-use crate::linalg::Lu;
+use crate::linalg::{Lu, LuDim};
 use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, Dim, OVector};
+use nalgebra::{DefaultAllocator, OMatrix, OVector};
 
-/// Result of one Newton solve.
-pub(crate) enum Solve {
-    Converged,
-    Failed { iterations: usize, residual: f64 },
-}
+/// The LU of `I − c·J` is refactored when `|c/c_LU − 1|` exceeds this (0.3, CVODE's
+/// `DGMAX`); below it the stale LU only slows Newton slightly, and the correction
+/// scaling `2/(1 + c/c_LU)` makes up most of that.
+pub const LU_REUSE: f64 = 0.3;
 
-/// Work space for the iteration.
-pub(crate) struct Work<'b, D: Dim>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    pub fx: &'b mut OVector<f64, D>,
-    pub dx: &'b mut OVector<f64, D>,
-}
-
-/// Iterate `x ← x − M⁻¹ G(x)` from the guess already in `x` until the estimated
-/// distance to the solution, `ρ/(1−ρ)·‖Δx‖`, is below `tol` (ρ the observed
-/// contraction rate), giving up when ρ ≥ 1 or when `max_iters` cannot reach `tol`
-/// at the current rate. Non-finite `f` at the first iterate (a finite predictor) is a
-/// model error; later it means the iterates have left the region and the step is retried.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn solve<D: Dim, S: System<D>, L: Lu<D>>(
-    f: &mut Eval<'_, D, S>,
-    lu: &L,
-    t1: f64,
-    x0: &OVector<f64, D>,
-    h: f64,
-    x: &mut OVector<f64, D>,
-    w: &Weights<D>,
-    tol: f64,
-    max_iters: usize,
-    work: Work<'_, D>,
-) -> Result<Solve>
+/// Iteration matrix, its LU and the Jacobian it was built from, plus work vectors.
+pub(crate) struct Newton<D: LuDim>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    let Work { fx, dx } = work;
-    let n = x.len();
+    j: OMatrix<f64, D, D>,
+    m: OMatrix<f64, D, D>,
+    lu: Option<D::Lu>,
+    c_lu: f64,
+    /// `J` was evaluated for the current step (a failure then means: shrink `h`).
+    j_current: bool,
+    /// `J` exists and belongs to the current control interval.
+    j_valid: bool,
+    fx: OVector<f64, D>,
+    dy: OVector<f64, D>,
+    /// Iterations of the last successful solve.
+    pub iterations: usize,
+}
+
+/// Settings of one solve.
+pub(crate) struct Goal {
+    /// Convergence threshold on the estimated distance to the solution.
+    pub tol: f64,
+    /// Iterations per attempt.
+    pub max_iters: usize,
+}
+
+impl<D: LuDim> Newton<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    /// Work space for states shaped like `x0`.
+    pub fn new(x0: &OVector<f64, D>) -> Self {
+        let (r, _) = x0.shape_generic();
+        Newton {
+            j: OMatrix::<f64, D, D>::zeros_generic(r, r),
+            m: OMatrix::<f64, D, D>::zeros_generic(r, r),
+            lu: None,
+            c_lu: f64::NAN,
+            j_current: false,
+            j_valid: false,
+            fx: x0.clone(),
+            dy: x0.clone(),
+            iterations: 0,
+        }
+    }
+
+    /// The inputs jumped: the Jacobian belongs to the old interval.
+    pub fn invalidate(&mut self) {
+        self.j_valid = false;
+        self.lu = None;
+    }
+
+    /// Evaluate `J` at `(t, x)` unless a valid one is at hand.
+    pub fn ensure_jacobian<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t: f64, x: &OVector<f64, D>) -> Result<()> {
+        if self.j_valid {
+            return Ok(());
+        }
+        self.refresh(f, t, x)
+    }
+
+    fn refresh<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t: f64, x: &OVector<f64, D>) -> Result<()> {
+        f.jacobian(t, x, &mut self.j)?;
+        self.j_valid = true;
+        self.j_current = true;
+        self.lu = None;
+        Ok(())
+    }
+
+    /// The LU of `I − c·J`, refactored when `c` moved more than [`LU_REUSE`]; `None`
+    /// when singular.
+    fn factor(&mut self, stats: &mut crate::Stats, c: f64) -> bool {
+        let fresh = self.lu.is_some() && ((c - self.c_lu) / self.c_lu).abs() <= LU_REUSE;
+        if !fresh {
+            self.m.copy_from(&self.j);
+            self.m *= -c;
+            for i in 0..self.m.nrows() {
+                self.m[(i, i)] += 1.0;
+            }
+            stats.lu_decompositions += 1;
+            self.lu = D::Lu::factor(&self.m);
+            self.c_lu = c;
+        }
+        self.lu.is_some()
+    }
+
+    /// The current LU (after a successful [`solve`](Self::solve)) and the `c` it was factored at.
+    pub fn lu(&self) -> Option<(&D::Lu, f64)> {
+        self.lu.as_ref().map(|lu| (lu, self.c_lu))
+    }
+
+    /// Solve for `d` (into `d`, with `y = y_p + d`), refreshing `J` once when the stale one
+    /// fails; `Some(failure)` when even a fresh `J` does not converge at this step.
+    #[allow(clippy::too_many_arguments)]
+    pub fn solve<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t1: f64,
+        y_p: &OVector<f64, D>,
+        c: f64,
+        psi: &OVector<f64, D>,
+        y: &mut OVector<f64, D>,
+        d: &mut OVector<f64, D>,
+        w: &Weights<D>,
+        goal: &Goal,
+    ) -> Result<Option<Failure>> {
+        let mut refreshed_at_iterate = false;
+        loop {
+            if !self.factor(&mut f.stats, c) {
+                if self.j_current {
+                    return Ok(Some(Failure::Singular));
+                }
+                self.refresh(f, t1, y_p)?;
+                continue;
+            }
+            let scale_c = 2.0 / (1.0 + c / self.c_lu);
+            let Some(lu) = self.lu.as_ref() else { continue };
+            let work = Work {
+                fx: &mut self.fx,
+                dy: &mut self.dy,
+            };
+            match iterate(f, lu, t1, y_p, c, psi, y, d, w, goal, scale_c, work)? {
+                Iterated::Converged(k) => {
+                    self.iterations = k;
+                    self.j_current = false;
+                    return Ok(None);
+                }
+                Iterated::Failed { iterations, residual } => {
+                    // refresh J where Newton got to (closer to the solution than the
+                    // predictor), once per step; then hand the step back to shrink
+                    let iterate_ok = y.iter().all(|v| v.is_finite()) && *y != *y_p;
+                    if self.j_current && (refreshed_at_iterate || !iterate_ok) {
+                        return Ok(Some(Failure::Newton { iterations, residual }));
+                    }
+                    if iterate_ok {
+                        let at = y.clone();
+                        self.refresh(f, t1, &at)?;
+                        refreshed_at_iterate = true;
+                    } else {
+                        self.refresh(f, t1, y_p)?;
+                    }
+                }
+            }
+        }
+    }
+}
+
+enum Iterated {
+    Converged(usize),
+    Failed { iterations: usize, residual: f64 },
+}
+
+struct Work<'b, D: nalgebra::Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fx: &'b mut OVector<f64, D>,
+    dy: &'b mut OVector<f64, D>,
+}
+
+/// Iterate `d ← d + s·M⁻¹(c·f(t₁, y_p + d) − ψ − d)` from `d = 0` until the estimated
+/// distance to the solution, `ρ/(1−ρ)·‖Δ‖`, is below `tol` (ρ the observed contraction
+/// rate, the norm scaled by the tolerances at `y_p`), giving up when ρ ≥ 1 or when the
+/// iterations left cannot reach `tol` at the current rate. A non-finite `f` at an iterate
+/// (the predictor included) fails the attempt, so the step is retried smaller; the
+/// methods check `f` where they start, so a model that is NaN there is still reported.
+#[allow(clippy::too_many_arguments)]
+fn iterate<D: nalgebra::Dim, S: System<D>, L: Lu<D>>(
+    f: &mut Eval<'_, D, S>,
+    lu: &L,
+    t1: f64,
+    y_p: &OVector<f64, D>,
+    c: f64,
+    psi: &OVector<f64, D>,
+    y: &mut OVector<f64, D>,
+    d: &mut OVector<f64, D>,
+    w: &Weights<D>,
+    goal: &Goal,
+    s: f64,
+    work: Work<'_, D>,
+) -> Result<Iterated>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    let Work { fx, dy } = work;
+    let n = y.len();
+    y.copy_from(y_p);
+    d.fill(0.0);
     let mut norm_old: Option<f64> = None;
     let mut last = f64::INFINITY;
+    let max_iters = goal.max_iters;
     for k in 0..max_iters {
-        match f.rhs(t1, x, fx) {
+        match f.rhs(t1, y, fx) {
             Ok(()) => {}
-            Err(e) if k == 0 => return Err(e),
+            // a wrong-length model is the model's error wherever it shows
+            Err(e @ crate::Error::InvalidInput { .. }) => return Err(e),
+            // past the method's own start (a predictor or a later iterate) a non-finite
+            // f means the iterate left the region where f is defined: shrink the step
             Err(_) => {
-                return Ok(Solve::Failed {
+                return Ok(Iterated::Failed {
                     iterations: k,
                     residual: last,
                 });
@@ -61,44 +234,57 @@ where
         }
         f.stats.newton_iterations += 1;
         for i in 0..n {
-            dx[i] = -(x[i] - x0[i] - h * fx[i]);
+            dy[i] = c * fx[i] - psi[i] - d[i];
         }
-        lu.solve_in_place(dx);
-        let mut s = 0.0;
+        lu.solve_in_place(dy);
+        if s != 1.0 {
+            *dy *= s;
+        }
+        let mut acc = 0.0;
         for i in 0..n {
-            let r = dx[i] / w.scale(i, x[i]);
-            s += r * r;
+            let r = dy[i] / w.scale(i, y_p[i]);
+            acc += r * r;
         }
-        let norm = (s / n.max(1) as f64).sqrt();
+        let norm = (acc / n.max(1) as f64).sqrt();
         last = norm;
         // a correction below the rounding of every component cannot change the iterate:
         // it is as converged as floating point allows (x₀ = 1e12, say, with a tiny step)
-        if norm.is_finite() && (0..n).all(|i| x[i] + dx[i] == x[i]) {
-            return Ok(Solve::Converged);
+        if norm.is_finite() && (0..n).all(|i| y[i] + dy[i] == y[i]) {
+            return Ok(Iterated::Converged(k + 1));
         }
         if !norm.is_finite() {
-            return Ok(Solve::Failed {
+            return Ok(Iterated::Failed {
                 iterations: k + 1,
                 residual: norm,
             });
         }
         let rate = norm_old.map(|old| norm / old);
         if let Some(rate) = rate
-            && (rate >= 1.0 || rate.powi((max_iters - k) as i32) / (1.0 - rate) * norm > tol)
+            && (rate >= 1.0 || rate.powi((max_iters - k) as i32) / (1.0 - rate) * norm > goal.tol)
         {
-            return Ok(Solve::Failed {
+            return Ok(Iterated::Failed {
                 iterations: k + 1,
                 residual: norm,
             });
         }
-        *x += &*dx;
-        if norm == 0.0 || rate.is_some_and(|rate| rate / (1.0 - rate) * norm < tol) {
-            return Ok(Solve::Converged);
+        *y += &*dy;
+        *d += &*dy;
+        if norm == 0.0 || rate.is_some_and(|rate| rate / (1.0 - rate) * norm < goal.tol) {
+            return Ok(Iterated::Converged(k + 1));
         }
         norm_old = Some(norm);
     }
-    Ok(Solve::Failed {
+    Ok(Iterated::Failed {
         iterations: max_iters,
         residual: last,
     })
+}
+
+/// scipy's Newton tolerance `max(10ε/rtol, min(0.03, √rtol))` for the smallest `rtol`.
+pub(crate) fn default_tol<D: nalgebra::Dim>(w: &Weights<D>) -> f64
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let rtol = w.rtol.iter().copied().fold(f64::INFINITY, f64::min).max(f64::EPSILON);
+    (10.0 * f64::EPSILON / rtol).max(0.03f64.min(rtol.sqrt()))
 }

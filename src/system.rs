@@ -42,6 +42,12 @@ where
     fn jacobian(&self, t: f64, x: &OVector<f64, D>, u: &[f64], jac: &mut OMatrix<f64, D, D>)
     where
         DefaultAllocator: Allocator<D, D>;
+    /// `dfdt ← ∂f/∂t (t, x, u)` if the model can give it exactly; returns `false`
+    /// (the default, `dfdt` untouched) when it cannot. Rosenbrock methods need this term
+    /// for non-autonomous models and fall back to a forward difference in `t` without it.
+    fn time_derivative(&self, _t: f64, _x: &OVector<f64, D>, _u: &[f64], _dfdt: &mut OVector<f64, D>) -> bool {
+        false
+    }
 }
 
 impl<D: Dim, T: System<D> + ?Sized> System<D> for &T
@@ -60,6 +66,9 @@ where
         DefaultAllocator: Allocator<D, D>,
     {
         (**self).jacobian(t, x, u, jac)
+    }
+    fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
+        (**self).time_derivative(t, x, u, dfdt)
     }
 }
 
@@ -394,6 +403,22 @@ where
             ));
         }
         finite(jac.as_slice(), t, Quantity::Jacobian).map_err(|e| self.length_error(t, x).unwrap_or(e))
+    }
+
+    /// `dfdt ← ∂f/∂t (t, x)` when the model provides it (`Ok(true)`, counted and
+    /// checked); `Ok(false)` when it does not (nothing counted, `dfdt` untouched).
+    pub fn time_derivative(&mut self, t: f64, x: &OVector<f64, D>, dfdt: &mut OVector<f64, D>) -> Result<bool> {
+        if !self.sys.time_derivative(t, x, &self.u, dfdt) {
+            return Ok(false);
+        }
+        self.stats.time_derivative_evals += 1;
+        if dfdt.len() != x.len() {
+            return Err(Error::invalid(
+                "model",
+                format!("∂f/∂t has {} components for a state of {}", dfdt.len(), x.len()),
+            ));
+        }
+        finite(dfdt.as_slice(), t, Quantity::Derivative).map(|()| true)
     }
 
     /// After a non-finite Jacobian: a model whose output has the wrong length says so.

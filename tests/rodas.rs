@@ -277,7 +277,7 @@ fn embedded_method_is_order_four() {
     let ns = [16, 32, 64, 128];
     let hs: Vec<f64> = ns.iter().map(|&n| 1.0 / n as f64).collect();
     let emb: Vec<f64> = ns.iter().map(|&n| run(1.0, n, true)).collect();
-    let main: Vec<f64> = ns.iter().map(|&n| run(4.0, 4 * n, false)).collect();
+    let main: Vec<f64> = ns.iter().map(|&n| run(4.0, n, false)).collect();
     let hm: Vec<f64> = hs.iter().map(|h| 4.0 * h).collect();
     let (pe, pm) = (slope(&hs, &emb), slope(&hm, &main));
     println!("global: embedded order {pe:.3} {emb:?}; main {pm:.3} {main:?}");

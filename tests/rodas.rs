@@ -1,11 +1,11 @@
 //! Rodas5P: tableau order conditions, stability, observed orders, published end states
 //! (Test Set mescd), dense output, and the model's exact ∂f/∂t.
 
-use nalgebra::{vector, Complex, SMatrix, SVector, Vector2};
+use nalgebra::{Complex, SMatrix, SVector, Vector2, vector};
 use reckon::methods::rodas5p::{A, C, C_T, D_T, GAMMA, STAGES};
 use reckon::methods::{Dopri5, Rodas5P};
 use reckon::problems::*;
-use reckon::{model, Options, Problem, System};
+use reckon::{Options, Problem, System, model};
 
 type M8 = SMatrix<f64, 8, 8>;
 type V8 = SVector<f64, 8>;
@@ -154,12 +154,19 @@ fn tableau_order_conditions_stiff_accuracy_and_stability() {
     assert!(r_inf.abs() < 1e-12, "R(∞) = {r_inf:e}");
     let r = |z: Complex<f64>| {
         let m = SMatrix::<Complex<f64>, 8, 8>::identity() - k.beta.map(|v| Complex::new(v, 0.0)) * z;
-        let y = m.lu().solve(&SVector::<Complex<f64>, 8>::repeat(Complex::new(1.0, 0.0))).unwrap();
+        let y = m
+            .lu()
+            .solve(&SVector::<Complex<f64>, 8>::repeat(Complex::new(1.0, 0.0)))
+            .unwrap();
         Complex::new(1.0, 0.0) + z * k.b.map(|v| Complex::new(v, 0.0)).dot(&y)
     };
     // agrees with e^z for small z to O(z⁶)
     let z = Complex::new(-0.01, 0.02);
-    assert!((r(z) - z.exp()).norm() < 1e-11 * 1e0, "R(z) − e^z = {}", (r(z) - z.exp()).norm());
+    assert!(
+        (r(z) - z.exp()).norm() < 1e-11 * 1e0,
+        "R(z) − e^z = {}",
+        (r(z) - z.exp()).norm()
+    );
     let mut worst: f64 = 0.0;
     for e in -30..=60 {
         let y = 10f64.powf(e as f64 / 10.0);
@@ -219,7 +226,13 @@ fn observed_order_at_fixed_steps() {
     }
     assert!((k.b.dot(&v) - 1.0 / 720.0).abs() < 1e-15, "bᵀB⁵1 = {}", k.b.dot(&v));
     let x0 = Vector2::new(1.0, 0.5);
-    let (p, e) = observed_order(rotation_decay(), x0, 2.0, &[10, 20, 40, 80], rotation_decay_exact(2.0, &x0));
+    let (p, e) = observed_order(
+        rotation_decay(),
+        x0,
+        2.0,
+        &[10, 20, 40, 80],
+        rotation_decay_exact(2.0, &x0),
+    );
     println!("linear autonomous: order {p:.3}, errors {e:?}");
     assert!((p - 6.0).abs() < 0.1, "linear: {p}");
     assert!(e[3] > 1e-13);
@@ -290,18 +303,24 @@ fn time_derivative_from_the_model() {
     let typed = model!(|t: S, x: [S; 2]| vector![x[0] * t.sin(), x[1] * t * t]);
     let mut d = vector![9.0, 9.0];
     assert!(typed.time_derivative(0.3, &vector![2.0, 3.0], &[], &mut d));
-    assert!((d[0] - 2.0 * 0.3f64.cos()).abs() < 1e-15 && (d[1] - 3.0 * 0.6).abs() < 1e-15, "{d}");
+    assert!(
+        (d[0] - 2.0 * 0.3f64.cos()).abs() < 1e-15 && (d[1] - 3.0 * 0.6).abs() < 1e-15,
+        "{d}"
+    );
     // the value and Jacobian copies see the same t
     let mut f = vector![0.0, 0.0];
     typed.rhs(0.3, &vector![2.0, 3.0], &[], &mut f);
     assert!((f - vector![2.0 * 0.3f64.sin(), 3.0 * 0.09]).amax() < 1e-15, "{f}");
     let mut j = nalgebra::Matrix2::zeros();
-    (&typed).jacobian(0.3, &vector![2.0, 3.0], &[], &mut j);
+    typed.jacobian(0.3, &vector![2.0, 3.0], &[], &mut j);
     assert_eq!(j, nalgebra::Matrix2::new(0.3f64.sin(), 0.0, 0.0, 0.09));
     // through &T, with inputs
     let with_u = model!(|t: S, x: [S; 1], u: [1]| vector![x[0] * t * u[0]]);
     let mut d1 = vector![0.0];
-    assert!((&with_u).time_derivative(5.0, &vector![2.0], &[4.0], &mut d1));
+    fn through<S: System<nalgebra::U1>>(s: S, d: &mut nalgebra::Vector1<f64>) -> bool {
+        s.time_derivative(5.0, &vector![2.0], &[4.0], d)
+    }
+    assert!(through(&with_u, &mut d1));
     assert_eq!(d1[0], 8.0);
     // Dyn
     let dy = model!(|t: S, x: [S; Dyn]| x.map(|v| v * t.exp()));
@@ -343,8 +362,14 @@ fn published<const N: usize, S: System<nalgebra::Const<N>>>(
 {
     for (rtol, need) in [(1e-6, 4.5), (1e-10, 7.0)] {
         let atol = atol_over_rtol * rtol;
-        let opts = Options::default().rtol(rtol).atol(atol).dense(false).max_steps(1_000_000);
-        let sol = Problem::new(&f, y0, (0.0, t_end)).solve(Rodas5P::default(), &opts).unwrap();
+        let opts = Options::default()
+            .rtol(rtol)
+            .atol(atol)
+            .dense(false)
+            .max_steps(1_000_000);
+        let sol = Problem::new(&f, y0, (0.0, t_end))
+            .solve(Rodas5P::default(), &opts)
+            .unwrap();
         let (mescd, scd) = digits(sol.last().1, yref, atol, rtol);
         let s = sol.stats;
         println!(
@@ -357,17 +382,38 @@ fn published<const N: usize, S: System<nalgebra::Const<N>>>(
 
 #[test]
 fn robertson_published_end_state() {
-    published("ROBER t=1e11", robertson(), vector![1.0, 0.0, 0.0], 1e11, &ROBERTSON_REF_1E11, 1e-4);
+    published(
+        "ROBER t=1e11",
+        robertson(),
+        vector![1.0, 0.0, 0.0],
+        1e11,
+        &ROBERTSON_REF_1E11,
+        1e-4,
+    );
 }
 
 #[test]
 fn vdpolm_published_end_state() {
-    published("VDPOLM t=2000", van_der_pol(1000.0), vector![2.0, 0.0], 2000.0, &VDPOLM_REF_2000, 1.0);
+    published(
+        "VDPOLM t=2000",
+        van_der_pol(1000.0),
+        vector![2.0, 0.0],
+        2000.0,
+        &VDPOLM_REF_2000,
+        1.0,
+    );
 }
 
 #[test]
 fn orego_published_end_state() {
-    published("OREGO t=360", orego(), vector![1.0, 2.0, 3.0], 360.0, &OREGO_REF_360, 1.0);
+    published(
+        "OREGO t=360",
+        orego(),
+        vector![1.0, 2.0, 3.0],
+        360.0,
+        &OREGO_REF_360,
+        1.0,
+    );
 }
 
 #[test]
@@ -380,8 +426,12 @@ fn hires_published_end_state() {
 #[test]
 fn dense_output_matches_tight_solution() {
     let p = Problem::new(van_der_pol(5.0), vector![2.0, 0.0], (0.0, 10.0));
-    let tight = p.solve(Dopri5::default(), &Options::default().rtol(1e-13).atol(1e-13)).unwrap();
-    let sol = p.solve(Rodas5P::default(), &Options::default().rtol(1e-7).atol(1e-9)).unwrap();
+    let tight = p
+        .solve(Dopri5::default(), &Options::default().rtol(1e-13).atol(1e-13))
+        .unwrap();
+    let sol = p
+        .solve(Rodas5P::default(), &Options::default().rtol(1e-7).atol(1e-9))
+        .unwrap();
     assert_eq!(sol.dense_segments().len(), sol.t.len() - 1);
     let grid = sol
         .t
@@ -396,7 +446,7 @@ fn dense_output_matches_tight_solution() {
         for th in [0.25, 0.5, 0.75] {
             let t = t0 + th * (t1 - t0);
             let r = tight.at(t).unwrap();
-            between = between.max((sol.at(t).unwrap() - &r).amax());
+            between = between.max((sol.at(t).unwrap() - r).amax());
             linear = linear.max((x0 * (1.0 - th) + x1 * th - r).amax());
         }
     }
@@ -404,4 +454,3 @@ fn dense_output_matches_tight_solution() {
     assert!(between < 3.0 * grid.max(1e-9), "between {between:e} vs grid {grid:e}");
     assert!(linear > 100.0 * between);
 }
-

@@ -249,9 +249,9 @@ where
 /// `model!(|t, x: [S; N]| body)` for a fixed-size state `SVector<S, N>`,
 /// `model!(|t, x: [S; Dyn]| body)` for a `DVector<S>`, and `, u: [M]` after the state
 /// for `M` held inputs (`u: &[f64]`). The body is written once and compiled twice,
-/// with `S = f64` and with `S` a num-dual number, so it must be generic in spirit:
+/// with `S = f64` and with `S` a num-dual number (three times with `t: S`), so it must be generic in spirit:
 /// put `f64` constants on the right (`x[0] * 2.0`, not `2.0 * x[0]`) or lift them
-/// with `S::from(2.0)`. Captured variables are moved into both copies: capture
+/// with `S::from(2.0)`. Captured variables are moved into every copy: capture
 /// `Copy` values or references.
 ///
 /// ```
@@ -262,6 +262,26 @@ where
 /// let mut j = Matrix3::zeros();
 /// f.jacobian(0.0, &vector![0.0, 0.0, 0.5], &[2.0, 0.1], &mut j);
 /// assert!((j[(0, 2)] + 2.0 * 0.5f64.sin()).abs() < 1e-15); // ∂ẋ/∂θ = −v sin θ
+/// ```
+///
+/// **Time.** A plain `t` is an `f64` in the body. Write `t: S` (the state's scalar name)
+/// to see `t` as `S` instead: the body is then also compiled a third time at num-dual's
+/// `Dual64` with `t` seeded and `x` constant, which gives the exact `∂f/∂t` that
+/// Rosenbrock methods ([`Rodas5P`](crate::methods::Rodas5P)) need for non-autonomous
+/// models ([`System::time_derivative`]); without it they take a forward difference in
+/// `t`. A time pattern written `_` marks the model autonomous: `∂f/∂t = 0` exactly.
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::vector;
+/// let f = model!(|t: S, x: [S; 1]| vector![x[0] * t.sin()]);
+/// let mut d = vector![0.0];
+/// assert!(f.time_derivative(0.5, &vector![2.0], &[], &mut d));
+/// assert!((d[0] - 2.0 * 0.5f64.cos()).abs() < 1e-15); // ∂/∂t (x sin t) = x cos t
+/// let g = model!(|_, x: [S; 1]| vector![-x[0]]);
+/// assert!(g.time_derivative(0.5, &vector![2.0], &[], &mut d) && d[0] == 0.0);
+/// let h = model!(|t, x: [S; 1]| vector![x[0] * t]);
+/// assert!(!h.time_derivative(0.5, &vector![2.0], &[], &mut d)); // not available
 /// ```
 ///
 /// # Common mistakes, and what they do

@@ -214,8 +214,9 @@ where
 /// ```
 /// use reckon::{model, methods::Rodas5P, Options, Problem};
 /// use nalgebra::vector;
-/// // stiff linear decay towards cos t: x' = −1000(x − cos t), x(0) = 1
-/// let f = model!(|t, x: [S; 1]| vector![(x[0] - t.cos()) * -1000.0]);
+/// // stiff linear decay towards cos t: x' = −1000(x − cos t), x(0) = 1;
+/// // `t: S` gives Rodas5P the exact ∂f/∂t = −1000 sin t by autodiff
+/// let f = model!(|t: S, x: [S; 1]| vector![(x[0] - t.cos()) * -1000.0]);
 /// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0))
 ///     .solve(Rodas5P::default(), &Options::default().rtol(1e-8).atol(1e-10))
 ///     .unwrap();

@@ -22,6 +22,8 @@ pub struct Stats {
     pub rhs_evals: u64,
     /// Calls of the autodiff Jacobian `∂f/∂x`.
     pub jacobian_evals: u64,
+    /// Calls of the model's exact `∂f/∂t` (Rosenbrock methods on non-autonomous models).
+    pub time_derivative_evals: u64,
     /// LU factorisations of `I − h·J`.
     pub lu_decompositions: u64,
     /// Newton iterations (each costs one `f` call and one LU solve).

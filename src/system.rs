@@ -42,6 +42,12 @@ where
     fn jacobian(&self, t: f64, x: &OVector<f64, D>, u: &[f64], jac: &mut OMatrix<f64, D, D>)
     where
         DefaultAllocator: Allocator<D, D>;
+    /// `dfdt ← ∂f/∂t (t, x, u)` if the model can give it exactly; returns `false`
+    /// (the default, `dfdt` untouched) when it cannot. Rosenbrock methods need this term
+    /// for non-autonomous models and fall back to a forward difference in `t` without it.
+    fn time_derivative(&self, _t: f64, _x: &OVector<f64, D>, _u: &[f64], _dfdt: &mut OVector<f64, D>) -> bool {
+        false
+    }
 }
 
 impl<D: Dim, T: System<D> + ?Sized> System<D> for &T
@@ -61,6 +67,9 @@ where
     {
         (**self).jacobian(t, x, u, jac)
     }
+    fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
+        (**self).time_derivative(t, x, u, dfdt)
+    }
 }
 
 /// A model given as one closure body instantiated twice: at `f64` (`F`) and at
@@ -69,10 +78,11 @@ where
 /// `f(t, x, u)` runs at hand-written `f64` cost; `J = ∂f/∂x` is exact to rounding
 /// because `G` propagates derivatives alongside values.
 #[derive(Clone)]
-pub struct ClosureModel<D, F, G> {
+pub struct ClosureModel<D, F, G, T = NoTimeDerivative> {
     inputs: usize,
     f: F,
     g: G,
+    dt: T,
     _dim: PhantomData<D>,
 }
 
@@ -84,15 +94,91 @@ impl<D, F, G> ClosureModel<D, F, G> {
             inputs,
             f,
             g,
+            dt: NoTimeDerivative,
             _dim: PhantomData,
         }
     }
 }
 
-impl<D: Dim, F, G> System<D> for ClosureModel<D, F, G>
+impl<D, F, G, T> ClosureModel<D, F, G, T> {
+    /// The same model with `∂f/∂t` given by `dt` ([`Autonomous`] or [`TimeDual`]).
+    /// [`model!`](crate::model) does this for `|_, x: …|` and `|t: S, x: …|`.
+    pub fn with_time_derivative<T2>(self, dt: T2) -> ClosureModel<D, F, G, T2> {
+        ClosureModel {
+            inputs: self.inputs,
+            f: self.f,
+            g: self.g,
+            dt,
+            _dim: PhantomData,
+        }
+    }
+}
+
+/// How a [`ClosureModel`] provides `∂f/∂t`.
+pub trait TimeDerivative<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// `dfdt ← ∂f/∂t (t, x, u)`; `false` if not available.
+    fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool;
+}
+
+/// `∂f/∂t` is not available (a `model!` whose time argument is a plain `f64` name).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NoTimeDerivative;
+
+impl<D: Dim> TimeDerivative<D> for NoTimeDerivative
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn time_derivative(&self, _t: f64, _x: &OVector<f64, D>, _u: &[f64], _dfdt: &mut OVector<f64, D>) -> bool {
+        false
+    }
+}
+
+/// `∂f/∂t = 0`: the model does not read `t` (`model!(|_, x: …| …)`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Autonomous;
+
+impl<D: Dim> TimeDerivative<D> for Autonomous
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn time_derivative(&self, _t: f64, _x: &OVector<f64, D>, _u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
+        dfdt.fill(0.0);
+        true
+    }
+}
+
+/// `∂f/∂t = ε-part of f(t + ε, x, u)`: the body instantiated at num-dual's `Dual64`
+/// with `t` seeded (derivative 1) and `x` constant (`model!(|t: S, x: …| …)`).
+#[derive(Clone)]
+pub struct TimeDual<H>(pub H);
+
+impl<D: Dim, H> TimeDerivative<D> for TimeDual<H>
+where
+    H: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<num_dual::Dual64, D>,
+    DefaultAllocator: Allocator<D>,
+{
+    fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
+        let r = (self.0)(t, x, u);
+        if r.len() == dfdt.len() {
+            for (d, v) in dfdt.iter_mut().zip(r.iter()) {
+                *d = v.eps;
+            }
+        } else {
+            // wrong length: NaN, which `Eval::time_derivative` reports
+            dfdt.fill(f64::NAN);
+        }
+        true
+    }
+}
+
+impl<D: Dim, F, G, T> System<D> for ClosureModel<D, F, G, T>
 where
     F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
+    T: TimeDerivative<D>,
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
 {
     fn inputs(&self) -> usize {
@@ -122,6 +208,9 @@ where
         );
         *jac = j;
     }
+    fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
+        self.dt.time_derivative(t, x, u, dfdt)
+    }
 }
 
 /// A model that can also be evaluated on num-dual numbers, so that maps built from it
@@ -134,10 +223,11 @@ where
     fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D>;
 }
 
-impl<D: Dim, F, G> DualSystem<D> for ClosureModel<D, F, G>
+impl<D: Dim, F, G, T> DualSystem<D> for ClosureModel<D, F, G, T>
 where
     F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
+    T: TimeDerivative<D>,
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
 {
     fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D> {
@@ -159,9 +249,9 @@ where
 /// `model!(|t, x: [S; N]| body)` for a fixed-size state `SVector<S, N>`,
 /// `model!(|t, x: [S; Dyn]| body)` for a `DVector<S>`, and `, u: [M]` after the state
 /// for `M` held inputs (`u: &[f64]`). The body is written once and compiled twice,
-/// with `S = f64` and with `S` a num-dual number, so it must be generic in spirit:
+/// with `S = f64` and with `S` a num-dual number (three times with `t: S`), so it must be generic in spirit:
 /// put `f64` constants on the right (`x[0] * 2.0`, not `2.0 * x[0]`) or lift them
-/// with `S::from(2.0)`. Captured variables are moved into both copies: capture
+/// with `S::from(2.0)`. Captured variables are moved into every copy: capture
 /// `Copy` values or references.
 ///
 /// ```
@@ -172,6 +262,26 @@ where
 /// let mut j = Matrix3::zeros();
 /// f.jacobian(0.0, &vector![0.0, 0.0, 0.5], &[2.0, 0.1], &mut j);
 /// assert!((j[(0, 2)] + 2.0 * 0.5f64.sin()).abs() < 1e-15); // ∂ẋ/∂θ = −v sin θ
+/// ```
+///
+/// **Time.** A plain `t` is an `f64` in the body. Write `t: S` (the state's scalar name)
+/// to see `t` as `S` instead: the body is then also compiled a third time at num-dual's
+/// `Dual64` with `t` seeded and `x` constant, which gives the exact `∂f/∂t` that
+/// Rosenbrock methods ([`Rodas5P`](crate::methods::Rodas5P)) need for non-autonomous
+/// models ([`System::time_derivative`]); without it they take a forward difference in
+/// `t`. A time pattern written `_` marks the model autonomous: `∂f/∂t = 0` exactly.
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::vector;
+/// let f = model!(|t: S, x: [S; 1]| vector![x[0] * t.sin()]);
+/// let mut d = vector![0.0];
+/// assert!(f.time_derivative(0.5, &vector![2.0], &[], &mut d));
+/// assert!((d[0] - 2.0 * 0.5f64.cos()).abs() < 1e-15); // ∂/∂t (x sin t) = x cos t
+/// let g = model!(|_, x: [S; 1]| vector![-x[0]]);
+/// assert!(g.time_derivative(0.5, &vector![2.0], &[], &mut d) && d[0] == 0.0);
+/// let h = model!(|t, x: [S; 1]| vector![x[0] * t]);
+/// assert!(!h.time_derivative(0.5, &vector![2.0], &[], &mut d)); // not available
 /// ```
 ///
 /// # Common mistakes, and what they do
@@ -233,24 +343,109 @@ macro_rules! model {
              S is f64 for values and a dual number for the Jacobian"
         )
     };
+    (|$t:tt : $ts:ident, $x:ident : [f64; $($rest:tt)*] $($more:tt)*) => {
+        ::core::compile_error!(
+            "model!: the state's scalar must be a type *name* the macro defines, not f64: \
+             write `|t: S, x: [S; N]|` and use `S` in the body"
+        )
+    };
+    (|$t:tt : f64, $($rest:tt)*) => {
+        ::core::compile_error!(
+            "model!: write the time as `t: S` (the state's scalar name: exact ∂f/∂t by \
+             autodiff) or as a plain `t` (an f64)"
+        )
+    };
+    // typed time `t: S`: exact ∂f/∂t from a third instantiation at Dual64
+    (|$t:tt : $ts:ident, $x:ident : [$s:ident; Dyn]| $body:expr) => {
+        $crate::model!(@dyn typed, 0, $t, $x, $s, _, $body)
+    };
+    (|$t:tt : $ts:ident, $x:ident : [$s:ident; Dyn], $u:tt : [$m:expr]| $body:expr) => {
+        $crate::model!(@dyn typed, $m, $t, $x, $s, $u, $body)
+    };
+    (|$t:tt : $ts:ident, $x:ident : [$s:ident; $n:expr]| $body:expr) => {
+        $crate::model!(@fixed typed, 0, $n, $t, $x, $s, _, $body)
+    };
+    (|$t:tt : $ts:ident, $x:ident : [$s:ident; $n:expr], $u:tt : [$m:expr]| $body:expr) => {
+        $crate::model!(@fixed typed, $m, $n, $t, $x, $s, $u, $body)
+    };
+    // time pattern `_`: autonomous, ∂f/∂t = 0
+    (|_, $x:ident : [$s:ident; Dyn]| $body:expr) => {
+        $crate::model!(@dyn auto, 0, _, $x, $s, _, $body)
+    };
+    (|_, $x:ident : [$s:ident; Dyn], $u:tt : [$m:expr]| $body:expr) => {
+        $crate::model!(@dyn auto, $m, _, $x, $s, $u, $body)
+    };
+    (|_, $x:ident : [$s:ident; $n:expr]| $body:expr) => {
+        $crate::model!(@fixed auto, 0, $n, _, $x, $s, _, $body)
+    };
+    (|_, $x:ident : [$s:ident; $n:expr], $u:tt : [$m:expr]| $body:expr) => {
+        $crate::model!(@fixed auto, $m, $n, _, $x, $s, $u, $body)
+    };
+    // plain `t` (an f64): no ∂f/∂t
     (|$t:tt, $x:ident : [$s:ident; Dyn]| $body:expr) => {
-        $crate::model!(@dyn 0, $t, $x, $s, _, $body)
+        $crate::model!(@dyn plain, 0, $t, $x, $s, _, $body)
     };
     (|$t:tt, $x:ident : [$s:ident; Dyn], $u:ident : [$m:expr]| $body:expr) => {
-        $crate::model!(@dyn $m, $t, $x, $s, $u, $body)
+        $crate::model!(@dyn plain, $m, $t, $x, $s, $u, $body)
     };
     (|$t:tt, $x:ident : [$s:ident; $n:expr]| $body:expr) => {
-        $crate::model!(@fixed 0, $n, $t, $x, $s, _, $body)
+        $crate::model!(@fixed plain, 0, $n, $t, $x, $s, _, $body)
     };
     (|$t:tt, $x:ident : [$s:ident; $n:expr], $u:tt : [$m:expr]| $body:expr) => {
-        $crate::model!(@fixed $m, $n, $t, $x, $s, $u, $body)
+        $crate::model!(@fixed plain, $m, $n, $t, $x, $s, $u, $body)
     };
-    (@fixed $m:expr, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
-        $crate::ClosureModel::<$crate::nalgebra::Const<{ $n }>, _, _>::new(
+    // how the body sees t: an f64 (plain, auto) or the scalar S (typed)
+    (@tlet plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
+    (@tlet auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
+    (@tlet typed, $t:tt, $s:ident, $v:expr) => { let $t: $s = <$s>::from($v); };
+    (@time plain, $model:expr, $($rest:tt)*) => { $model };
+    (@time auto, $model:expr, $($rest:tt)*) => { $model.with_time_derivative($crate::system::Autonomous) };
+    (@time typed, $model:expr, fixed, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
+        $model.with_time_derivative($crate::system::TimeDual(
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            move |__t: f64,
+                  __x: &$crate::nalgebra::SVector<f64, { $n }>,
+                  $u: &[f64]|
+                  -> $crate::nalgebra::SVector<$crate::num_dual::Dual64, { $n }> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
+                #[allow(dead_code)]
+                type $s = $crate::num_dual::Dual64;
+                let __xd = __x.map(<$s>::from);
+                let $x = &__xd;
+                let $t: $s = $crate::num_dual::Dual64::new(__t, 1.0);
+                $body
+            },
+        ))
+    };
+    (@time typed, $model:expr, dyn, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
+        $model.with_time_derivative($crate::system::TimeDual(
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            move |__t: f64,
+                  __x: &$crate::nalgebra::DVector<f64>,
+                  $u: &[f64]|
+                  -> $crate::nalgebra::DVector<$crate::num_dual::Dual64> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
+                #[allow(dead_code)]
+                type $s = $crate::num_dual::Dual64;
+                let __xd = __x.map(<$s>::from);
+                let $x = &__xd;
+                let $t: $s = $crate::num_dual::Dual64::new(__t, 1.0);
+                $body
+            },
+        ))
+    };
+    (@fixed $mode:ident, $m:expr, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
+        $crate::model!(@time $mode, $crate::ClosureModel::<$crate::nalgebra::Const<{ $n }>, _, _>::new(
             $m,
             #[allow(unused_variables, clippy::clone_on_copy)]
             #[inline(always)]
-            move |$t: f64,
+            move |__t: f64,
                   $x: &$crate::nalgebra::SVector<f64, { $n }>,
                   $u: &[f64]|
                   -> $crate::nalgebra::SVector<f64, { $n }> {
@@ -260,10 +455,11 @@ macro_rules! model {
                 use $crate::__private::Signed as _;
                 #[allow(dead_code)]
                 type $s = f64;
+                $crate::model!(@tlet $mode, $t, $s, __t);
                 $body
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
-            move |$t: f64,
+            move |__t: f64,
                   $x: &$crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n }>, { $n }>,
                   $u: &[f64]|
                   -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n }>, { $n }> {
@@ -273,25 +469,27 @@ macro_rules! model {
                 use $crate::__private::Signed as _;
                 #[allow(dead_code)]
                 type $s = $crate::num_dual::DualSVec64<{ $n }>;
+                $crate::model!(@tlet $mode, $t, $s, __t);
                 $body
             },
-        )
+        ), fixed, $n, $t, $x, $s, $u, $body)
     };
-    (@dyn $m:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
-        $crate::ClosureModel::<$crate::nalgebra::Dyn, _, _>::new(
+    (@dyn $mode:ident, $m:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
+        $crate::model!(@time $mode, $crate::ClosureModel::<$crate::nalgebra::Dyn, _, _>::new(
             $m,
             #[allow(unused_variables, clippy::clone_on_copy)]
-            move |$t: f64, $x: &$crate::nalgebra::DVector<f64>, $u: &[f64]| -> $crate::nalgebra::DVector<f64> {
+            move |__t: f64, $x: &$crate::nalgebra::DVector<f64>, $u: &[f64]| -> $crate::nalgebra::DVector<f64> {
                 #[allow(unused_imports)]
                 use $crate::num_dual::DualNum as _;
                 #[allow(unused_imports)]
                 use $crate::__private::Signed as _;
                 #[allow(dead_code)]
                 type $s = f64;
+                $crate::model!(@tlet $mode, $t, $s, __t);
                 $body
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
-            move |$t: f64,
+            move |__t: f64,
                   $x: &$crate::nalgebra::DVector<$crate::num_dual::DualDVec64>,
                   $u: &[f64]|
                   -> $crate::nalgebra::DVector<$crate::num_dual::DualDVec64> {
@@ -301,15 +499,17 @@ macro_rules! model {
                 use $crate::__private::Signed as _;
                 #[allow(dead_code)]
                 type $s = $crate::num_dual::DualDVec64;
+                $crate::model!(@tlet $mode, $t, $s, __t);
                 $body
             },
-        )
+        ), dyn, $t, $x, $s, $u, $body)
     };
     ($($other:tt)*) => {
         ::core::compile_error!(
             "model!: expected `|t, x: [S; N]| body`, `|t, x: [S; N], u: [M]| body`, \
              `|t, x: [S; Dyn]| body` or `|t, x: [S; Dyn], u: [M]| body` \
-             (N states, M held inputs, S the scalar type name the body uses)"
+             (N states, M held inputs, S the scalar type name the body uses; \
+             `t: S` gives the body t as S and an exact ∂f/∂t; `_` marks an autonomous model)"
         )
     };
 }
@@ -394,6 +594,22 @@ where
             ));
         }
         finite(jac.as_slice(), t, Quantity::Jacobian).map_err(|e| self.length_error(t, x).unwrap_or(e))
+    }
+
+    /// `dfdt ← ∂f/∂t (t, x)` when the model provides it (`Ok(true)`, counted and
+    /// checked); `Ok(false)` when it does not (nothing counted, `dfdt` untouched).
+    pub fn time_derivative(&mut self, t: f64, x: &OVector<f64, D>, dfdt: &mut OVector<f64, D>) -> Result<bool> {
+        if !self.sys.time_derivative(t, x, &self.u, dfdt) {
+            return Ok(false);
+        }
+        self.stats.time_derivative_evals += 1;
+        if dfdt.len() != x.len() {
+            return Err(Error::invalid(
+                "model",
+                format!("∂f/∂t has {} components for a state of {}", dfdt.len(), x.len()),
+            ));
+        }
+        finite(dfdt.as_slice(), t, Quantity::Derivative).map(|()| true)
     }
 
     /// After a non-finite Jacobian: a model whose output has the wrong length says so.

@@ -1,7 +1,7 @@
 //! A counting global allocator: a fixed-size step allocates nothing after setup.
 
 use nalgebra::vector;
-use reckon::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler, Method};
+use reckon::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler, Method, Rodas5P};
 use reckon::models::unicycle;
 use reckon::problems::{robertson, van_der_pol};
 use reckon::{Controls, Options, Problem, System};
@@ -89,6 +89,14 @@ fn fixed_size_steps_allocate_nothing() {
         n, 0,
         "adaptive implicit Euler on Robertson (Jacobian refreshes and LU included)"
     );
+    let (n, stats) = allocs_and_stats(&rob, Rodas5P::default(), &opts.clone().rtol(1e-6).atol(1e-10), 100);
+    assert!(stats.jacobian_evals > 50 && stats.lu_decompositions > 50, "{stats:?}");
+    assert_eq!(n, 0, "adaptive Rodas5P on Robertson");
+    assert_eq!(
+        allocs_in_steps(&vdp, Rodas5P::default(), &opts.clone().fixed(0.01), 200),
+        0,
+        "Rodas5P fixed"
+    );
     // breakpoints with input changes and the exact flow
     let times: Vec<f64> = (0..=400).map(|k| k as f64 * 0.05).collect();
     let values = times.iter().map(|t| vec![1.0, t.sin()]).collect();
@@ -108,5 +116,10 @@ fn fixed_size_steps_allocate_nothing() {
         allocs_in_steps(&uni, ImplicitEuler::default(), &opts.clone().fixed(0.01), 200),
         0,
         "IE across breakpoints"
+    );
+    assert_eq!(
+        allocs_in_steps(&uni, Rodas5P::default(), &opts, 200),
+        0,
+        "Rodas5P across breakpoints"
     );
 }

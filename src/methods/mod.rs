@@ -14,12 +14,14 @@ pub mod exact;
 pub mod explicit_euler;
 pub mod implicit_euler;
 pub mod newton;
+pub mod rodas5p;
 
 pub use bdf::Bdf;
 pub use dopri5::Dopri5;
 pub use exact::{Exact, Flow};
 pub use explicit_euler::ExplicitEuler;
 pub use implicit_euler::{ImplicitEuler, NewtonOptions};
+pub use rodas5p::Rodas5P;
 
 /// What one step attempt produced.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -28,7 +28,22 @@ where
     }
 
     /// DOPRI5's test: `h·λ > 3.25` fifteen times without six non-stiff verdicts between.
+    /// Evaluated every `every`-th accepted step, and on every step while a stiff verdict
+    /// stands (dopri5.f: `MOD(NACCPT,NSTIFF).EQ.0 .OR. IASTI.GT.0`).
+    #[inline(always)]
     pub(super) fn check_stiffness(&mut self, h: f64, t_new: f64) {
+        // the common case in two compares: not due, no stiff verdict standing (the same
+        // branch as the first return in `stiffness_test`, without reading the option)
+        if self.stiff_countdown > 1 && self.stiff_count.0 == 0 {
+            self.stiff_countdown -= 1;
+            return;
+        }
+        self.stiffness_test(h, t_new);
+    }
+
+    /// The body of [`check_stiffness`](Self::check_stiffness) off its fast path.
+    #[inline(never)]
+    fn stiffness_test(&mut self, h: f64, t_new: f64) {
         let Some(every) = self.stiff_every else { return };
         let (stiff, nonstiff) = &mut self.stiff_count;
         self.stiff_countdown -= 1;

@@ -40,7 +40,7 @@ pub const ARENSTORF_T: f64 = 17.0652165601579625588917206249;
 
 /// The Arenstorf orbit of the restricted three-body problem (HNW ODE I §II.0).
 pub fn arenstorf() -> impl crate::DualSystem<Const<4>> + Clone {
-    crate::model!(|_t, y: [S; 4]| {
+    crate::model!(|_, y: [S; 4]| {
         let mu = ARENSTORF_MU;
         let mu1 = 1.0 - mu;
         // r³ as r²·√(r²): exact to rounding and far cheaper than powf(1.5)
@@ -64,12 +64,12 @@ pub fn arenstorf_y0() -> Vector4<f64> {
 
 /// Van der Pol in μ form: `y1' = y2`, `y2' = μ(1 − y1²)y2 − y1`.
 pub fn van_der_pol(mu: f64) -> impl crate::DualSystem<Const<2>> + Clone {
-    crate::model!(|_t, y: [S; 2]| vector![y[1], (-y[0] * y[0] + 1.0) * y[1] * mu - y[0]])
+    crate::model!(|_, y: [S; 2]| vector![y[1], (-y[0] * y[0] + 1.0) * y[1] * mu - y[0]])
 }
 
 /// Robertson's chemical kinetics, `k = (0.04, 3e7, 1e4)`, `y0 = (1, 0, 0)`.
 pub fn robertson() -> impl crate::DualSystem<Const<3>> + Clone {
-    crate::model!(|_t, y: [S; 3]| vector![
+    crate::model!(|_, y: [S; 3]| vector![
         y[0] * -0.04 + y[1] * y[2] * 1e4,
         y[0] * 0.04 - y[1] * y[1] * 3e7 - y[1] * y[2] * 1e4,
         y[1] * y[1] * 3e7
@@ -83,7 +83,7 @@ pub fn orego() -> impl crate::DualSystem<Const<3>> + Clone {
     const S_: f64 = 77.27;
     const Q: f64 = 8.375e-6;
     const W: f64 = 0.161;
-    crate::model!(|_t, y: [S; 3]| vector![
+    crate::model!(|_, y: [S; 3]| vector![
         (y[1].clone() + y[0].clone() * (-y[0].clone() * Q - y[1].clone() + 1.0)) * S_,
         (y[2].clone() - (y[0].clone() + 1.0) * y[1].clone()) * (1.0 / S_),
         (y[0].clone() - y[2].clone()) * W
@@ -96,7 +96,7 @@ pub const OREGO_REF_360: [f64; 3] = [1.000814870318523, 1228.178521549917, 132.0
 /// HIRES, "high irradiance responses" of photomorphogenesis (Test Set `hires.f`), 8 states,
 /// `y0 = (1, 0, 0, 0, 0, 0, 0, 0.0057)`; reference at `t = 321.8122` in [`HIRES_REF`].
 pub fn hires() -> impl crate::DualSystem<Const<8>> + Clone {
-    crate::model!(|_t, y: [S; 8]| vector![
+    crate::model!(|_, y: [S; 8]| vector![
         y[0].clone() * -1.71 + y[1].clone() * 0.43 + y[2].clone() * 8.32 + 0.0007,
         y[0].clone() * 1.71 - y[1].clone() * 8.75,
         y[2].clone() * -10.03 + y[3].clone() * 0.43 + y[4].clone() * 0.035,
@@ -137,7 +137,7 @@ pub const VDPOLM_REF_2000: [f64; 2] = [1.706167732170469, -0.8928097010248125e-3
 
 /// Lorenz with σ = 10, ρ = 28, β = 8/3.
 pub fn lorenz() -> impl crate::DualSystem<Const<3>> + Clone {
-    crate::model!(|_t, y: [S; 3]| vector![
+    crate::model!(|_, y: [S; 3]| vector![
         (y[1] - y[0]) * 10.0,
         y[0] * (-y[2] + 28.0) - y[1],
         y[0] * y[1] - y[2] * (8.0 / 3.0)
@@ -154,7 +154,7 @@ pub fn lorenz_y0() -> Vector3<f64> {
 /// `v_i' = 3u_i − u_i²v_i + α(n+1)²(v_{i−1} − 2v_i + v_{i+1})`, boundary values `u = 1, v = 3`.
 pub fn brusselator(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
     let c = (n as f64 + 1.0).powi(2) / 50.0;
-    crate::model!(|_t, y: [S; Dyn]| {
+    crate::model!(|_, y: [S; Dyn]| {
         let n = y.len() / 2;
         nalgebra::DVector::from_fn(2 * n, |k, _| {
             let i = k / 2;

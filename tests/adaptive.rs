@@ -129,10 +129,17 @@ fn adaptive_implicit_euler_error_scales_with_sqrt_tolerance() {
             .unwrap();
         errs.push((sol.last().1 - exact).amax());
         assert_eq!(sol.stats.jacobian_evals, 1, "J is reused across steps: {:?}", sol.stats);
-        assert_eq!(
-            sol.stats.newton_iterations,
-            2 * sol.stats.accepted,
-            "linear: converged in 2 iterations"
+        // linear: an exact LU solves in one correction (plus one that confirms it); an
+        // LU kept from a step size up to 30 % away needs about one more
+        assert!(
+            sol.stats.newton_iterations <= 3 * sol.stats.accepted,
+            "linear: at most 3 iterations per step: {:?}",
+            sol.stats
+        );
+        assert!(
+            sol.stats.lu_decompositions <= 6 && sol.stats.accepted >= 60,
+            "the LU is kept while h stays within 30 %: {:?}",
+            sol.stats
         );
     }
     let slope = fit_order(&tols, &errs).unwrap();

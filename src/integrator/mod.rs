@@ -57,6 +57,8 @@ where
     max_steps: usize,
     h_max: f64,
     max_failures: usize,
+    /// Why the last implicit attempt failed, while no step has been accepted since.
+    last_failure: Option<Failure>,
     segment: Option<usize>,
     keep_dense: bool,
     dense: Vec<OVector<f64, D>>,
@@ -228,6 +230,7 @@ where
             max_steps: opts.max_steps,
             h_max: opts.h_max,
             max_failures: opts.max_step_failures,
+            last_failure: None,
             segment,
             keep_dense,
             dense,
@@ -395,7 +398,7 @@ where
             // a step that lands on a stop advances to it exactly, however small
             let resolvable = land.is_some() || h.abs() > 10.0 * f64::EPSILON * self.tau.abs();
             if !(resolvable && h.abs() > 0.0 && h.abs() < f64::INFINITY) {
-                return Err(Error::StepSizeUnderflow { t: self.t, h });
+                return Err(self.underflow(h));
             }
             self.attempts += 1;
             let outcome = self
@@ -430,8 +433,14 @@ where
         *failures += 1;
         // a fixed step at which I − hJ is singular has no implicit Euler map
         let singular_fixed = !self.adaptive && why == Failure::Singular;
+        self.last_failure = Some(why);
         if *failures > self.max_failures || singular_fixed {
             return Err(match why {
+                Failure::NonFinite { t, component } => Error::NonFinite {
+                    t,
+                    quantity: crate::error::Quantity::Derivative,
+                    component,
+                },
                 Failure::Newton { iterations, residual } => Error::NewtonDiverged {
                     t: self.t,
                     h,
@@ -448,6 +457,20 @@ where
             self.sub_h = Some(0.5 * h);
         }
         Ok(())
+    }
+
+    /// The step size shrank below what `t − t0` resolves. When it shrank because `f` was
+    /// non-finite at every Newton attempt, that is the error: say where `f` broke.
+    #[cold]
+    fn underflow(&mut self, h: f64) -> Error {
+        match self.last_failure.take() {
+            Some(Failure::NonFinite { t, component }) => Error::NonFinite {
+                t,
+                quantity: crate::error::Quantity::Derivative,
+                component,
+            },
+            _ => Error::StepSizeUnderflow { t: self.t, h },
+        }
     }
 
     /// The step produced NaN or ±∞: say where.
@@ -517,6 +540,7 @@ where
 
     fn accept(&mut self, h: f64, err: f64, land: Option<f64>, mut t_new: f64, tau_new: f64) -> Result<()> {
         self.f.stats.accepted += 1;
+        self.last_failure = None;
         if self.adaptive {
             self.check_stiffness(h, t_new);
         }

@@ -1,5 +1,7 @@
 //! Variable-order, variable-step BDF/NDF in the quasi-constant-step form with backward
 //! differences (Shampine & Reichelt, "The MATLAB ODE suite", 1997; scipy `_ivp/bdf.py`).
+// the difference-array algebra reads as the papers print it, with indices
+#![allow(clippy::needless_range_loop)]
 
 use super::newton::{self, Goal, Newton};
 use super::{Method, Outcome};
@@ -170,6 +172,7 @@ where
         Self::default()
     }
     /// Plain BDF (`κ = 0`); its order-1 member is implicit Euler.
+    #[allow(clippy::self_named_constructors)]
     pub fn bdf() -> Self {
         Bdf {
             coef: Coefficients::new(false),

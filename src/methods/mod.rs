@@ -48,6 +48,15 @@ pub enum Failure {
     },
     /// `I − h·J` was singular with a fresh Jacobian.
     Singular,
+    /// `f` was NaN or ±∞ at a Newton iterate: the step is retried smaller, and if it
+    /// shrinks to nothing this is reported as [`Error::NonFinite`](crate::Error::NonFinite)
+    /// at `t` (where `f` broke), not as a step-size underflow.
+    NonFinite {
+        /// Time of the evaluation.
+        t: f64,
+        /// The first non-finite component of `f`.
+        component: usize,
+    },
 }
 
 /// A one-step method: tableau or Newton solve or exact flow, plus its dense output.

@@ -154,12 +154,20 @@ where
                     self.j_current = false;
                     return Ok(None);
                 }
-                Iterated::Failed { iterations, residual } => {
+                Iterated::Failed {
+                    iterations,
+                    residual,
+                    non_finite,
+                } => {
+                    let failure = match non_finite {
+                        Some((t, component)) => Failure::NonFinite { t, component },
+                        None => Failure::Newton { iterations, residual },
+                    };
                     // refresh J where Newton got to (closer to the solution than the
                     // predictor), once per step; then hand the step back to shrink
                     let iterate_ok = y.iter().all(|v| v.is_finite()) && *y != *y_p;
                     if self.j_current && (refreshed_at_iterate || !iterate_ok) {
-                        return Ok(Some(Failure::Newton { iterations, residual }));
+                        return Ok(Some(failure));
                     }
                     if iterate_ok {
                         let at = y.clone();
@@ -176,7 +184,12 @@ where
 
 enum Iterated {
     Converged(usize),
-    Failed { iterations: usize, residual: f64 },
+    Failed {
+        iterations: usize,
+        residual: f64,
+        /// `(t, component)` when the attempt ended at a non-finite `f`.
+        non_finite: Option<(f64, usize)>,
+    },
 }
 
 struct Work<'b, D: nalgebra::Dim>
@@ -225,10 +238,15 @@ where
             Err(e @ crate::Error::InvalidInput { .. }) => return Err(e),
             // past the method's own start (a predictor or a later iterate) a non-finite
             // f means the iterate left the region where f is defined: shrink the step
-            Err(_) => {
+            Err(e) => {
+                let non_finite = match e {
+                    crate::Error::NonFinite { t, component, .. } => Some((t, component)),
+                    _ => None,
+                };
                 return Ok(Iterated::Failed {
                     iterations: k,
                     residual: last,
+                    non_finite,
                 });
             }
         }
@@ -256,6 +274,7 @@ where
             return Ok(Iterated::Failed {
                 iterations: k + 1,
                 residual: norm,
+                non_finite: None,
             });
         }
         let rate = norm_old.map(|old| norm / old);
@@ -265,6 +284,7 @@ where
             return Ok(Iterated::Failed {
                 iterations: k + 1,
                 residual: norm,
+                non_finite: None,
             });
         }
         *y += &*dy;
@@ -277,6 +297,7 @@ where
     Ok(Iterated::Failed {
         iterations: max_iters,
         residual: last,
+        non_finite: None,
     })
 }
 

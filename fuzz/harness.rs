@@ -260,8 +260,13 @@ fn list_of(u: &mut Unstructured, words: &[&str]) -> Result<String> {
 // ---------------------------------------------------------------------------------------
 // cli_args: argument vectors from the real flag set of each command
 
-/// The study problems the commands know (the registry's own list).
-const PROBLEMS: [&str; 12] = reckon::cli::registry::NAMES;
+/// The study problems the commands know: the registry's own list, its first twelve
+/// (later additions are left out so that the saved regression inputs replay exactly as
+/// they were recorded).
+const PROBLEMS: [&str; 12] = {
+    let n = reckon::cli::registry::NAMES;
+    [n[0], n[1], n[2], n[3], n[4], n[5], n[6], n[7], n[8], n[9], n[10], n[11]]
+};
 const STUDY_METHODS: [&str; 4] = ["euler", "implicit-euler", "rk45", "exact"];
 
 /// An input file: fuzzer bytes, or a CSV with a plausible header and generated rows.

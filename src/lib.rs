@@ -50,5 +50,5 @@ pub mod __private {
 }
 pub use options::{Options, StepSize};
 pub use problem::Problem;
-pub use solution::{Solution, Stats};
+pub use solution::{Solution, Stats, Switch};
 pub use system::{ClosureModel, DualSystem, System};

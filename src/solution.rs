@@ -44,6 +44,15 @@ pub struct Stiffness {
     pub h_lambda: f64,
 }
 
+/// A switch of an auto-switching method ([`Auto`](crate::methods::Auto)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Switch {
+    /// Time of the switch (the end of the last step of the old method).
+    pub t: f64,
+    /// The method switched to.
+    pub to: &'static str,
+}
+
 /// A zero of an event function `g(t, x)` found during the integration.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EventHit<D: Dim>
@@ -116,6 +125,8 @@ where
     pub stiffness: Option<Stiffness>,
     /// Name of the method that produced this solution.
     pub method: &'static str,
+    /// Every method switch of an auto-switching method, in time order (empty otherwise).
+    pub switches: Vec<Switch>,
     pub(crate) dense: Vec<DenseSegment<D>>,
 }
 

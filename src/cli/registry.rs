@@ -1,13 +1,13 @@
 //! The problems the study commands know, behind one object-safe interface.
 
 use crate::linalg::LuDim;
-use crate::methods::{Dopri5, Flow, ImplicitEuler, Method};
+use crate::methods::{Auto, Bdf, Dopri5, Flow, ImplicitEuler, Method, Rodas5P};
 use crate::models::{bicycle, carlike, unicycle};
 use crate::problems::*;
 use crate::studies::MethodKind;
 use crate::studies::convergence::{Convergence, check, convergence};
 use crate::studies::stiffness::{StiffnessPoint, stiffness_along};
-use crate::studies::work_precision::{WorkPoint, work_precision};
+use crate::studies::work_precision::{WorkPoint, work_precision_scaled};
 use crate::{Controls, Error, Options, Problem, Result, Solution, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{Const, DefaultAllocator, Dim, OVector, SVector, vector};
@@ -65,6 +65,8 @@ where
     rk45_steps: Vec<f64>,
     /// true when a path reference may be computed with RK45 at 1e-12 (non-stiff)
     rk_reference: bool,
+    /// atol = this · rtol in work–precision runs (the Test Set's convention per problem)
+    atol_over_rtol: f64,
 }
 
 fn history<D: Dim, S: System<D>, M: Method<D>>(p: &Problem<'_, D, S>, m: M, opts: &Options) -> History
@@ -153,6 +155,9 @@ where
         vec![
             history(&self.problem, Dopri5::default(), &opts),
             history(&self.problem, ImplicitEuler::default(), &opts),
+            history(&self.problem, Bdf::default(), &opts),
+            history(&self.problem, Rodas5P::default(), &opts),
+            history(&self.problem, Auto::default(), &opts),
         ]
     }
     fn stiffness_points(&self, rtol: f64, atol: f64) -> Result<Vec<StiffnessPoint>> {
@@ -174,7 +179,16 @@ where
             (None, Some(r)) => r.clone(),
             (None, None) => self.reference_solution()?.last().1.clone(),
         };
-        work_precision(&self.problem, methods, tols, steps, &reference, self.flow(), runs)
+        work_precision_scaled(
+            &self.problem,
+            methods,
+            tols,
+            steps,
+            &reference,
+            self.flow(),
+            runs,
+            self.atol_over_rtol,
+        )
     }
 }
 
@@ -198,6 +212,7 @@ where
         steps,
         rk45_steps,
         rk_reference: true,
+        atol_over_rtol: 1.0,
     }
 }
 
@@ -205,7 +220,7 @@ fn halvings(h0: f64, n: usize) -> Vec<f64> {
     (0..n).map(|k| h0 / 2f64.powi(k as i32)).collect()
 }
 
-pub const NAMES: [&str; 12] = [
+pub const NAMES: [&str; 14] = [
     "rotation-decay",
     "dahlquist",
     "sin-u",
@@ -218,6 +233,8 @@ pub const NAMES: [&str; 12] = [
     "van-der-pol",
     "robertson",
     "brusselator",
+    "orego",
+    "hires",
 ];
 
 fn vehicle_controls() -> Controls {
@@ -390,6 +407,31 @@ pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> 
             #[allow(clippy::excessive_precision)] // digits as published
             let reference = vector![2.083340149701255e-8, 8.333360770334713e-14, 0.9999999791665050];
             s.reference_end = Some(reference);
+            s.rk_reference = false;
+            s.atol_over_rtol = 1e-4;
+            Box::new(s)
+        }
+        "orego" => {
+            let mut s = spec(
+                "orego",
+                "Oregonator (s = 77.27, q = 8.375e-6, w = 0.161), y0 = (1, 2, 3), t in [0, 360]; reference from the Test Set (OREGO)",
+                Problem::new(orego(), vector![1.0, 2.0, 3.0], (0.0, 360.0)),
+                None,
+                (vec![], vec![]),
+            );
+            s.reference_end = Some(OREGO_REF_360.into());
+            s.rk_reference = false;
+            Box::new(s)
+        }
+        "hires" => {
+            let mut s = spec(
+                "hires",
+                "HIRES (8 reactions of photomorphogenesis), t in [0, 321.8122]; reference from the Test Set",
+                Problem::new(hires(), hires_y0(), (0.0, HIRES_T)),
+                None,
+                (vec![], vec![]),
+            );
+            s.reference_end = Some(HIRES_REF.into());
             s.rk_reference = false;
             Box::new(s)
         }

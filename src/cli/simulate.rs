@@ -1,7 +1,7 @@
 //! `reckon simulate`: a vehicle model driven by a controls CSV, with any method.
 
 use super::csvio::{RowWriter, Rows, check_not_input, num};
-use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
+use crate::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method, Rodas5P};
 use crate::models::{bicycle, carlike, unicycle};
 use crate::{Options, Problem, System};
 use nalgebra::{Const, SVector};
@@ -28,6 +28,12 @@ pub enum MethodName {
     ImplicitEuler,
     /// adaptive Dormand–Prince 5(4)
     Rk45,
+    /// adaptive variable-order BDF/NDF 1–5 (stiff)
+    Bdf,
+    /// adaptive Rosenbrock Rodas5P (stiff, exact Jacobian)
+    Rodas5p,
+    /// rk45 switching to bdf while the model is stiff
+    Auto,
     /// the model's exact flow, one step per control interval (--dt: a finer grid)
     Exact,
 }
@@ -48,10 +54,10 @@ pub struct SimulateArgs {
     #[arg(long, value_enum)]
     pub method: MethodName,
     /// Fixed step of euler, implicit-euler and exact (default: one step per control
-    /// interval); largest step of rk45.
+    /// interval); largest step of rk45, bdf, rodas5p and auto.
     #[arg(long, allow_hyphen_values = true)]
     pub dt: Option<f64>,
-    /// Relative tolerance (rk45; Newton's scale for implicit-euler).
+    /// Relative tolerance (adaptive methods; Newton's scale for implicit-euler).
     #[arg(long, default_value_t = 1e-6, allow_hyphen_values = true)]
     pub rtol: f64,
     /// Absolute tolerance.
@@ -197,17 +203,14 @@ where
         base.clone().fixed(dt).validate()?;
     }
     out.line(header)?;
+    let adaptive = base.clone().h_max(args.dt.unwrap_or(f64::INFINITY));
     match args.method {
         MethodName::Euler => stream(&problem, ExplicitEuler, &fixed, rdr, next, out),
         MethodName::ImplicitEuler => stream(&problem, ImplicitEuler::default(), &fixed, rdr, next, out),
-        MethodName::Rk45 => stream(
-            &problem,
-            Dopri5::default(),
-            &base.h_max(args.dt.unwrap_or(f64::INFINITY)),
-            rdr,
-            next,
-            out,
-        ),
+        MethodName::Rk45 => stream(&problem, Dopri5::default(), &adaptive, rdr, next, out),
+        MethodName::Bdf => stream(&problem, Bdf::default(), &adaptive, rdr, next, out),
+        MethodName::Rodas5p => stream(&problem, Rodas5P::default(), &adaptive, rdr, next, out),
+        MethodName::Auto => stream(&problem, Auto::default(), &adaptive, rdr, next, out),
         MethodName::Exact => {
             let opts = match args.dt {
                 Some(dt) => base.fixed(dt),

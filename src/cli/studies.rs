@@ -45,7 +45,7 @@ impl Write for Stdout {
 #[derive(Debug, clap::Args)]
 pub struct Common {
     /// Problem name (rotation-decay, dahlquist, sin-u, stiff-cosine, arenstorf, lorenz,
-    /// unicycle, bicycle, carlike, van-der-pol, robertson, brusselator).
+    /// unicycle, bicycle, carlike, van-der-pol, robertson, orego, hires, brusselator).
     #[arg(long)]
     pub problem: String,
     /// Output folder for CSV and SVG files.
@@ -98,7 +98,8 @@ pub struct WorkPrecisionArgs {
     /// Methods, comma separated.
     #[arg(long, value_delimiter = ',', default_value = "implicit-euler,rk45")]
     pub methods: Vec<String>,
-    /// Tolerances (rtol = atol) of the adaptive methods, comma separated.
+    /// Tolerances of the adaptive methods, comma separated: rtol, and atol = rtol (robertson:
+    /// atol = 1e-4·rtol, the Test Set convention).
     #[arg(long, value_delimiter = ',', required = true, allow_negative_numbers = true)]
     pub tolerances: Vec<f64>,
     /// Fixed steps for explicit Euler, comma separated.

@@ -84,6 +84,9 @@ where
             };
             self.check_stiffness(h, t_new);
             self.method.accept();
+            if let Some(to) = self.method.switched() {
+                self.switches.push(super::Switch { t: t_new, to });
+            }
             std::mem::swap(&mut self.x, &mut self.x_new);
             self.t = t_new;
             self.tau = tau_new;

@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::methods::{Failure, Method, Outcome};
 use crate::options::{Options, StepSize};
 use crate::problem::Problem;
-use crate::solution::{DenseSegment, EventHit, Solution, Stats, Stiffness};
+use crate::solution::{DenseSegment, EventHit, Solution, Stats, Stiffness, Switch};
 use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -69,6 +69,7 @@ where
     stiff_count: (u32, u32),
     stiff_countdown: usize,
     stiffness: Option<Stiffness>,
+    switches: Vec<Switch>,
     done: bool,
 }
 
@@ -241,6 +242,7 @@ where
             stiff_count: (0, 0),
             stiff_countdown: opts.stiffness_check.unwrap_or(0),
             stiffness: None,
+            switches: Vec::new(),
             done: false,
         })
     }
@@ -552,6 +554,9 @@ where
             self.last_step = (self.t, h, t_new);
         }
         self.method.accept();
+        if let Some(to) = self.method.switched() {
+            self.switches.push(Switch { t: t_new, to });
+        }
         std::mem::swap(&mut self.x, &mut self.x_new);
         self.t = t_new;
         self.tau = if stopped { t_new - self.problem.t0 } else { tau_new };
@@ -605,6 +610,7 @@ where
             events: std::mem::take(&mut self.hits),
             stiffness: self.stiffness,
             method: self.method.name(),
+            switches: std::mem::take(&mut self.switches),
             dense,
         })
     }

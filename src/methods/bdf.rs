@@ -204,6 +204,11 @@ where
     pub fn current_order(&self) -> usize {
         self.st.as_ref().map_or(1, |s| s.order)
     }
+    /// `‖J‖∞` of Newton's Jacobian (a bound on `|λ|` for every eigenvalue), if one is
+    /// held for the current interval.
+    pub fn jacobian_norm(&self) -> Option<f64> {
+        self.st.as_ref().and_then(|s| s.newton.jacobian_norm())
+    }
     /// Whether this is the NDF variant.
     pub fn is_ndf(&self) -> bool {
         self.ndf

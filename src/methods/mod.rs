@@ -8,6 +8,7 @@ use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
+pub mod auto;
 pub mod bdf;
 pub mod dopri5;
 pub mod exact;
@@ -16,6 +17,7 @@ pub mod implicit_euler;
 pub mod newton;
 pub mod rodas5p;
 
+pub use auto::Auto;
 pub use bdf::Bdf;
 pub use dopri5::Dopri5;
 pub use exact::{Exact, Flow};
@@ -146,6 +148,12 @@ where
     /// accepted step (`accepted`, called after [`accept`](Method::accept)) or a rejected
     /// one with estimate `err`; `None` leaves it to the driver's [`controller`](Method::controller).
     fn step_factor(&mut self, _accepted: bool, _err: f64) -> Option<f64> {
+        None
+    }
+    /// After [`accept`](Method::accept): the name of the method an auto-switching method
+    /// ([`Auto`]) has just switched to, once; the driver records it in
+    /// [`Solution::switches`](crate::Solution::switches).
+    fn switched(&mut self) -> Option<&'static str> {
         None
     }
     /// Estimate `|h·λ|` of the dominant eigenvalue for the step just taken

@@ -74,6 +74,16 @@ where
         }
     }
 
+    /// `‖J‖∞` of the Jacobian in use, if there is one for this interval.
+    pub fn jacobian_norm(&self) -> Option<f64> {
+        self.j_valid.then(|| {
+            self.j
+                .row_iter()
+                .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+                .fold(0.0, f64::max)
+        })
+    }
+
     /// The inputs jumped: the Jacobian belongs to the old interval.
     pub fn invalidate(&mut self) {
         self.j_valid = false;

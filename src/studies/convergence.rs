@@ -121,6 +121,15 @@ where
     if !has_flow && methods.contains(&MethodKind::Exact) {
         return Err(Error::invalid("method", "this problem has no exact flow"));
     }
+    if let Some(m) = methods.iter().find(|m| !m.fixed_step_order()) {
+        return Err(Error::invalid(
+            "method",
+            format!(
+                "{} changes its order (or its method) as it goes, so a fixed-step order fit means nothing: study it with `reckon work-precision`",
+                m.name()
+            ),
+        ));
+    }
     for &h in steps {
         let n = steps_needed(problem, h);
         if n > max_steps as f64 {

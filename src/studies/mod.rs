@@ -9,7 +9,7 @@ pub mod work_precision;
 
 use crate::error::{Error, Result};
 use crate::linalg::LuDim;
-use crate::methods::{Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method};
+use crate::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method, Rodas5P};
 use crate::{Options, Problem, Solution, Stats, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -49,15 +49,24 @@ pub enum MethodKind {
     Rk45,
     /// The problem's exact flow.
     Exact,
+    /// Variable-order BDF/NDF (adaptive runs only).
+    Bdf,
+    /// Rosenbrock method Rodas5P.
+    Rodas5P,
+    /// Dopri5 ⇄ BDF by stiffness detection (adaptive runs only).
+    Auto,
 }
 
 impl MethodKind {
     /// All methods, in table order.
-    pub const ALL: [MethodKind; 4] = [
+    pub const ALL: [MethodKind; 7] = [
         MethodKind::Euler,
         MethodKind::ImplicitEuler,
         MethodKind::Rk45,
         MethodKind::Exact,
+        MethodKind::Bdf,
+        MethodKind::Rodas5P,
+        MethodKind::Auto,
     ];
 
     /// The command-line name.
@@ -67,15 +76,24 @@ impl MethodKind {
             MethodKind::ImplicitEuler => "implicit-euler",
             MethodKind::Rk45 => "rk45",
             MethodKind::Exact => "exact",
+            MethodKind::Bdf => "bdf",
+            MethodKind::Rodas5P => "rodas5p",
+            MethodKind::Auto => "auto",
         }
+    }
+
+    /// Whether the method has a fixed order at a fixed step (variable-order BDF and the
+    /// switching Auto do not: they belong in adaptive studies).
+    pub fn fixed_step_order(self) -> bool {
+        !matches!(self, MethodKind::Bdf | MethodKind::Auto)
     }
 
     /// The classical order (`None` for the exact flow).
     pub fn order(self) -> Option<f64> {
         match self {
             MethodKind::Euler | MethodKind::ImplicitEuler => Some(1.0),
-            MethodKind::Rk45 => Some(5.0),
-            MethodKind::Exact => None,
+            MethodKind::Rk45 | MethodKind::Rodas5P => Some(5.0),
+            MethodKind::Exact | MethodKind::Bdf | MethodKind::Auto => None,
         }
     }
 }
@@ -89,7 +107,7 @@ impl std::str::FromStr for MethodKind {
             .ok_or_else(|| {
                 Error::invalid(
                     "method",
-                    format!("'{s}' is not one of euler, implicit-euler, rk45, exact"),
+                    format!("'{s}' is not one of euler, implicit-euler, rk45, exact, bdf, rodas5p, auto"),
                 )
             })
     }
@@ -123,6 +141,9 @@ where
         MethodKind::Euler => problem.solve(ExplicitEuler, opts),
         MethodKind::ImplicitEuler => problem.solve(ImplicitEuler::default(), opts),
         MethodKind::Rk45 => problem.solve(Dopri5::default(), opts),
+        MethodKind::Bdf => problem.solve(Bdf::default(), opts),
+        MethodKind::Rodas5P => problem.solve(Rodas5P::default(), opts),
+        MethodKind::Auto => problem.solve(Auto::default(), opts),
         MethodKind::Exact => match flow {
             Some(f) => problem.solve(Exact::new(DynFlow(f)), opts),
             None => Err(Error::invalid("method", "this problem has no exact flow")),
@@ -177,6 +198,9 @@ where
         MethodKind::Euler => drive_method(problem, ExplicitEuler, opts, visit),
         MethodKind::ImplicitEuler => drive_method(problem, ImplicitEuler::default(), opts, visit),
         MethodKind::Rk45 => drive_method(problem, Dopri5::default(), opts, visit),
+        MethodKind::Bdf => drive_method(problem, Bdf::default(), opts, visit),
+        MethodKind::Rodas5P => drive_method(problem, Rodas5P::default(), opts, visit),
+        MethodKind::Auto => drive_method(problem, Auto::default(), opts, visit),
         MethodKind::Exact => match flow {
             Some(f) => drive_method(problem, Exact::new(DynFlow(f)), opts, visit),
             None => Err(Error::invalid("method", "this problem has no exact flow")),

@@ -1,0 +1,100 @@
+//! Auto: DOPRI5 while non-stiff, BDF while stiff, every switch recorded.
+
+use nalgebra::{Vector1, vector};
+use reckon::methods::{Auto, Bdf, Dopri5};
+use reckon::problems::*;
+use reckon::{Controls, Options, Problem, model};
+
+/// Van der Pol μ = 1000 on [0, 2000] (Test Set VDPOLM): stiff on the slow branches,
+/// non-stiff in the fast jumps.
+#[test]
+fn van_der_pol_switches_to_bdf_and_beats_dopri5_tenfold() {
+    let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 2000.0));
+    let o = Options::default().rtol(1e-6).atol(1e-6).max_steps(100_000_000);
+    let auto = p.solve(Auto::default(), &o).unwrap();
+    let rk = p.solve(Dopri5::default(), &o).unwrap();
+    println!(
+        "auto {:?} switches {} first {:?}\nrk45 {:?}",
+        auto.stats,
+        auto.switches.len(),
+        &auto.switches[..auto.switches.len().min(6)],
+        rk.stats
+    );
+    // DOPRI5's own test fires within 15 steps of the start: the first slow branch
+    // lasts until t ≈ 807, and the switch comes far inside it
+    let first = auto.switches[0];
+    assert_eq!(first.to, "bdf");
+    assert!(first.t < 1.0, "switched to BDF at t = {}", first.t);
+    assert!(
+        auto.stats.accepted * 10 < rk.stats.accepted,
+        "auto {} steps vs rk45 {}",
+        auto.stats.accepted,
+        rk.stats.accepted
+    );
+    // it comes back to DOPRI5 in the fast jumps (y1 ≈ ±2 → ∓1 at t ≈ 807, 1615) and goes
+    // stiff again after each
+    assert!(auto.switches.iter().any(|s| s.to == "rk45"), "{:?}", auto.switches);
+    for w in auto.switches.windows(2) {
+        assert!(w[0].t < w[1].t && w[0].to != w[1].to, "{:?}", auto.switches);
+    }
+    // accuracy: the Test Set reference end state
+    let y = auto.last().1;
+    let err = (0..2)
+        .map(|i| (y[i] - VDPOLM_REF_2000[i]).abs() / (1.0 + VDPOLM_REF_2000[i].abs()))
+        .fold(0.0, f64::max);
+    assert!(err < 1e-3, "end state {y:?} vs reference: {err}");
+}
+
+/// A problem that never gets stiff is DOPRI5 throughout, step for step.
+#[test]
+fn non_stiff_problem_never_switches() {
+    let p = Problem::new(arenstorf(), arenstorf_y0(), (0.0, ARENSTORF_T));
+    let o = Options::default().rtol(1e-9).atol(1e-9);
+    let auto = p.solve(Auto::default(), &o).unwrap();
+    let rk = p.solve(Dopri5::default(), &o).unwrap();
+    assert!(auto.switches.is_empty(), "{:?}", auto.switches);
+    assert_eq!(auto.t, rk.t);
+    assert_eq!(auto.last().1, rk.last().1);
+}
+
+/// Robertson on [0, 1e5]: stiff after the initial transient; Auto ends on BDF with an
+/// answer as good as BDF's own.
+#[test]
+fn robertson_ends_on_bdf() {
+    let p = Problem::new(robertson(), vector![1.0, 0.0, 0.0], (0.0, 1e5));
+    let o = Options::default().rtol(1e-6).atol(1e-10).max_steps(10_000_000);
+    let auto = p.solve(Auto::default(), &o).unwrap();
+    let bdf = p.solve(Bdf::default(), &o).unwrap();
+    assert_eq!(auto.switches.last().map(|s| s.to), Some("bdf"), "{:?}", auto.switches);
+    let d = (auto.last().1 - bdf.last().1).amax();
+    assert!(d < 1e-5, "auto vs bdf {d}");
+    assert!(
+        auto.stats.accepted < 2 * bdf.stats.accepted + 100,
+        "{:?} vs {:?}",
+        auto.stats,
+        bdf.stats
+    );
+    assert!((auto.last().1.sum() - 1.0).abs() < 1e-12);
+}
+
+/// Dense output follows the active method, and input jumps keep working across modes.
+#[test]
+fn dense_output_and_breakpoints_across_a_switch() {
+    // x' = −1000(x − u): stiff; u jumps 1 → 2 at t = 1
+    let f = model!(|_, x: [S; 1], u: [1]| vector![(x[0] - u[0]) * -1000.0]);
+    let c = Controls::new(vec![0.0, 1.0], vec![vec![1.0], vec![2.0]]).unwrap();
+    let p = Problem::new(&f, Vector1::new(0.0), (0.0, 2.0)).controls(c);
+    let sol = p
+        .solve(Auto::default(), &Options::default().rtol(1e-8).atol(1e-10).dense(true))
+        .unwrap();
+    assert_eq!(sol.switches.first().map(|s| s.to), Some("bdf"));
+    assert!(sol.t.contains(&1.0));
+    // exact: x = u + (x(t_k) − u)e^{−1000(t − t_k)}; far from the jumps x ≈ u
+    for (t, want) in [(0.5, 1.0), (0.9, 1.0), (1.5, 2.0), (1.95, 2.0)] {
+        let y = sol.at(t).unwrap()[0];
+        assert!((y - want).abs() < 1e-6, "x({t}) = {y}");
+    }
+    let y = sol.at(1.001).unwrap()[0];
+    let exact = 2.0 - (-1.0f64).exp();
+    assert!((y - exact).abs() < 1e-4, "x(1.001) = {y} vs {exact}");
+}

@@ -120,6 +120,12 @@ pub enum MethodStyle {
     ImplicitEuler,
     /// Blue dashed line (RK45 and its DP5 stability boundary).
     Rk45,
+    /// Purple long-dashed line (variable-order BDF/NDF).
+    Bdf,
+    /// Brown short-dashed line (Rosenbrock Rodas5P).
+    Rodas5P,
+    /// Pink dash-dotted line (RK45 ⇄ BDF switching).
+    Auto,
 }
 
 impl MethodStyle {
@@ -131,6 +137,9 @@ impl MethodStyle {
     /// assert_eq!(MethodStyle::of("rk45 (slope 5.01)"), Some(MethodStyle::Rk45));
     /// assert_eq!(MethodStyle::of("implicit-euler"), Some(MethodStyle::ImplicitEuler));
     /// assert_eq!(MethodStyle::of("explicit Euler h = 0.1"), Some(MethodStyle::ExplicitEuler));
+    /// assert_eq!(MethodStyle::of("bdf"), Some(MethodStyle::Bdf));
+    /// assert_eq!(MethodStyle::of("rodas5p"), Some(MethodStyle::Rodas5P));
+    /// assert_eq!(MethodStyle::of("auto (rk45 ⇄ bdf)"), Some(MethodStyle::Auto));
     /// assert_eq!(MethodStyle::of("true path"), None);
     /// ```
     pub fn of(label: &str) -> Option<MethodStyle> {
@@ -138,6 +147,12 @@ impl MethodStyle {
         let first = l.split_whitespace().next().unwrap_or("");
         if first == "exact" {
             Some(MethodStyle::Exact)
+        } else if first == "auto" {
+            Some(MethodStyle::Auto)
+        } else if first.starts_with("bdf") {
+            Some(MethodStyle::Bdf)
+        } else if first.starts_with("rodas") {
+            Some(MethodStyle::Rodas5P)
         } else if l.contains("rk45") || first == "dp5" || l.contains("dopri") {
             Some(MethodStyle::Rk45)
         } else if l.contains("implicit euler") {
@@ -154,6 +169,9 @@ impl MethodStyle {
             MethodStyle::ExplicitEuler => RGBColor(214, 39, 40),
             MethodStyle::ImplicitEuler => RGBColor(44, 160, 44),
             MethodStyle::Rk45 => RGBColor(31, 119, 180),
+            MethodStyle::Bdf => RGBColor(148, 103, 189),
+            MethodStyle::Rodas5P => RGBColor(140, 86, 75),
+            MethodStyle::Auto => RGBColor(227, 119, 194),
         }
     }
     /// Dash and gap in pixels (`None`: solid).
@@ -162,16 +180,16 @@ impl MethodStyle {
             MethodStyle::Exact | MethodStyle::ExplicitEuler => None,
             MethodStyle::ImplicitEuler => Some((3, 4)),
             MethodStyle::Rk45 => Some((10, 5)),
+            MethodStyle::Bdf => Some((16, 6)),
+            MethodStyle::Rodas5P => Some((5, 3)),
+            MethodStyle::Auto => Some((12, 3)),
         }
     }
 }
 
 /// Colours of series that are not methods (none of the method colours).
-const OTHERS: [RGBColor; 7] = [
+const OTHERS: [RGBColor; 4] = [
     RGBColor(255, 127, 14),
-    RGBColor(148, 103, 189),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
     RGBColor(23, 190, 207),
     RGBColor(188, 189, 34),
     RGBColor(127, 127, 127),

@@ -416,7 +416,7 @@ macro_rules! model {
                 let __xd = __x.map(<$s>::from);
                 let $x = &__xd;
                 let $t: $s = $crate::num_dual::Dual64::new(__t, 1.0);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
         ))
     };
@@ -436,7 +436,7 @@ macro_rules! model {
                 let __xd = __x.map(<$s>::from);
                 let $x = &__xd;
                 let $t: $s = $crate::num_dual::Dual64::new(__t, 1.0);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
         ))
     };
@@ -456,7 +456,7 @@ macro_rules! model {
                 #[allow(dead_code)]
                 type $s = f64;
                 $crate::model!(@tlet $mode, $t, $s, __t);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
@@ -470,7 +470,7 @@ macro_rules! model {
                 #[allow(dead_code)]
                 type $s = $crate::num_dual::DualSVec64<{ $n }>;
                 $crate::model!(@tlet $mode, $t, $s, __t);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
         ), fixed, $n, $t, $x, $s, $u, $body)
     };
@@ -486,7 +486,7 @@ macro_rules! model {
                 #[allow(dead_code)]
                 type $s = f64;
                 $crate::model!(@tlet $mode, $t, $s, __t);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
@@ -500,7 +500,7 @@ macro_rules! model {
                 #[allow(dead_code)]
                 type $s = $crate::num_dual::DualDVec64;
                 $crate::model!(@tlet $mode, $t, $s, __t);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
         ), dyn, $t, $x, $s, $u, $body)
     };

@@ -66,11 +66,15 @@ fn dynamic_state_with_integer_arithmetic_untouched() {
     // `2 * n` and `i + 1` stay integer expressions; only float literals are lifted
     let left = model!(|_t, x: [S; Dyn]| {
         let n = x.len();
-        DVector::from_fn(n, |i, _| 2.0 * x[(i + 2 * n - 1) % n].clone() - 0.25 * x[i].clone() * x[i].clone())
+        DVector::from_fn(n, |i, _| {
+            2.0 * x[(i + 2 * n - 1) % n].clone() - 0.25 * x[i].clone() * x[i].clone()
+        })
     });
     let right = model!(|_t, x: [S; Dyn]| {
         let n = x.len();
-        DVector::from_fn(n, |i, _| x[(i + 2 * n - 1) % n].clone() * 2.0 - x[i].clone() * 0.25 * x[i].clone())
+        DVector::from_fn(n, |i, _| {
+            x[(i + 2 * n - 1) % n].clone() * 2.0 - x[i].clone() * 0.25 * x[i].clone()
+        })
     });
     let mapped = model!(|_t, x: [S; Dyn]| x.map(|v| 1.0 - 3.0 * v));
     for s in STATES {
@@ -161,12 +165,16 @@ fn precedence_and_spellings() {
     let f = model!(|_t, x: [S; 3]| {
         let q = ((1.0, 0.5),);
         let c = if 1.0 < 2.0 * 0.75 { 1.0 - 0.5 } else { 2.0 - 1.0 - 0.25 };
+        let g = || {
+            if c < 1.0 {
+                return 4.0 / x[2] - 1.0 + x[0] * 2.0f64.sqrt();
+            }
+            x[0] * 0.0
+        };
         vector![
             1.0 - 2.0 * x[0] - 3.0 / x[1] + 1e-3 * x[2] + 2f64 * x[0] - 2.5_f64 * x[1],
             x[0] * -2.0 * x[1] + -2.0 * -x[2] + x[0] * q.0.1 + x[1] * (2.0 + 1.0) - 0.5 * x[2] * c,
-            (|| {
-                return 4.0 / x[2] - 1.0 + x[0] * 2.0f64.sqrt();
-            })()
+            g()
         ]
     });
     for s in STATES {
@@ -174,7 +182,10 @@ fn precedence_and_spellings() {
         let x = vector![a, b, c];
         let dx = rhs(&f, 0.0, &x, &[]);
         assert_eq!(dx[0], 1.0 - 2.0 * a - 3.0 / b + 1e-3 * c + 2f64 * a - 2.5_f64 * b);
-        assert_eq!(dx[1], a * -2.0 * b + -2.0 * -c + a * 0.5 + b * (2.0 + 1.0) - 0.5 * c * 0.5);
+        assert_eq!(
+            dx[1],
+            a * -2.0 * b + -2.0 * -c + a * 0.5 + b * (2.0 + 1.0) - 0.5 * c * 0.5
+        );
         assert_eq!(dx[2], 4.0 / c - 1.0 + a * 2.0f64.sqrt());
         let mut j = Matrix3::zeros();
         f.jacobian(0.0, &x, &[], &mut j);

@@ -164,6 +164,13 @@ fn precedence_and_spellings() {
     // every line is its own Rust f64 value: the lift changes types, never the parse
     let f = model!(|_t, x: [S; 3]| {
         let q = ((1.0, 0.5),);
+        // const contexts are left as written (Lhs's operators are not const)
+        const K: f64 = 2.0 * 0.25;
+        static L: [f64; 2] = [1.0 - 0.5, 0.0];
+        const fn twice(v: f64) -> f64 {
+            2.0 * v
+        }
+        let k = const { 3.0 * 0.5 } * K * L[0] * twice(0.25);
         let c = if 1.0 < 2.0 * 0.75 { 1.0 - 0.5 } else { 2.0 - 1.0 - 0.25 };
         let g = || {
             if c < 1.0 {
@@ -174,7 +181,7 @@ fn precedence_and_spellings() {
         vector![
             1.0 - 2.0 * x[0] - 3.0 / x[1] + 1e-3 * x[2] + 2f64 * x[0] - 2.5_f64 * x[1],
             x[0] * -2.0 * x[1] + -2.0 * -x[2] + x[0] * q.0.1 + x[1] * (2.0 + 1.0) - 0.5 * x[2] * c,
-            g()
+            g() * k
         ]
     });
     for s in STATES {
@@ -186,7 +193,8 @@ fn precedence_and_spellings() {
             dx[1],
             a * -2.0 * b + -2.0 * -c + a * 0.5 + b * (2.0 + 1.0) - 0.5 * c * 0.5
         );
-        assert_eq!(dx[2], 4.0 / c - 1.0 + a * 2.0f64.sqrt());
+        let k = 1.5 * 0.5 * 0.5 * 0.5;
+        assert_eq!(dx[2], (4.0 / c - 1.0 + a * 2.0f64.sqrt()) * k);
         let mut j = Matrix3::zeros();
         f.jacobian(0.0, &x, &[], &mut j);
         let exact = Matrix3::new(
@@ -196,9 +204,9 @@ fn precedence_and_spellings() {
             -2.0 * b + 0.5,
             -2.0 * a + 3.0,
             2.0 - 0.25,
-            2.0f64.sqrt(),
+            2.0f64.sqrt() * k,
             0.0,
-            -4.0 / (c * c),
+            -4.0 / (c * c) * k,
         );
         for (u, v) in j.iter().zip(exact.iter()) {
             assert!((u - v).abs() <= 1e-15 * v.abs().max(1.0), "{j} vs {exact} at {x:?}");

@@ -14,7 +14,8 @@
 //!
 //! A unary minus is part of the literal (`-2.0 * x` → `Lhs(-2.0) * x`, Rust's
 //! `(-2.0) * x`). Integer literals (`2 * n`) and a literal followed by `.`
-//! (`2.0f64.sqrt()`) are left alone; so are `f32` literals (`Lhs` holds an `f64`).
+//! (`2.0f64.sqrt()`) are left alone; so are `f32` literals (`Lhs` holds an `f64`)
+//! and `const`/`static` items (const contexts, where `Lhs`'s operators cannot run).
 
 use proc_macro::{Delimiter, Group, Ident, Literal, Punct, Spacing, Span, TokenStream, TokenTree};
 
@@ -31,7 +32,7 @@ pub fn lift_literals(input: TokenStream) -> TokenStream {
         Some(TokenTree::Punct(p)) if p.as_char() == ',' => {}
         _ => return error("lift_literals!: expected `$crate, body`"),
     }
-    rewrite(it.collect(), &krate)
+    rewrite(it.collect(), &krate, true)
 }
 
 fn error(msg: &str) -> TokenStream {
@@ -180,19 +181,52 @@ fn left_operand(lexes: &[Lex], prev: Option<usize>, next: usize) -> bool {
     }
 }
 
-fn rewrite(stream: TokenStream, krate: &TokenTree) -> TokenStream {
+/// Where a `const`/`static` item (a const context: `Lhs`'s operators are not `const`)
+/// ends: at the next `;`, or after the next `{…}` for `const fn` and `const {…}`.
+#[derive(Clone, Copy, PartialEq)]
+enum ConstEnd {
+    Semi,
+    Brace,
+}
+
+fn is_ident(l: Option<&Lex>, names: &[&str]) -> bool {
+    matches!(l, Some(Lex::Tree(TokenTree::Ident(i))) if names.contains(&i.to_string().as_str()))
+}
+
+/// `stream` with its float literals on the left of `+ - * /` lifted, groups included;
+/// with `lift == false` (inside a const item) only copied.
+fn rewrite(stream: TokenStream, krate: &TokenTree, lift: bool) -> TokenStream {
     let lexes = lex(stream);
     let mut out: Vec<TokenTree> = Vec::new();
+    let mut in_const: Option<ConstEnd> = None;
     let mut i = 0;
     while i < lexes.len() {
+        if in_const.is_none() && is_ident(lexes.get(i), &["const", "static"]) {
+            let brace = is_ident(lexes.get(i + 1), &["fn", "unsafe"])
+                || matches!(lexes.get(i + 1), Some(Lex::Tree(TokenTree::Group(g))) if g.delimiter() == Delimiter::Brace);
+            in_const = Some(if brace { ConstEnd::Brace } else { ConstEnd::Semi });
+        }
+        if let Some(end) = in_const {
+            push(&lexes[i], krate, false, &mut out);
+            let ends = match (&lexes[i], end) {
+                (Lex::Op(op, _), ConstEnd::Semi) => op == ";",
+                (Lex::Tree(TokenTree::Group(g)), ConstEnd::Brace) => g.delimiter() == Delimiter::Brace,
+                _ => false,
+            };
+            if ends {
+                in_const = None;
+            }
+            i += 1;
+            continue;
+        }
         let prev = i.checked_sub(1);
         // a unary minus followed by a float literal is one operand
         let neg = op_is(lexes.get(i), &["-"]) && !ends_value(prev.map(|p| &lexes[p])) && float_at(&lexes, i + 1);
         let end = if neg { i + 2 } else { i + 1 };
-        if (neg || float_at(&lexes, i)) && left_operand(&lexes, prev, end) {
+        if lift && (neg || float_at(&lexes, i)) && left_operand(&lexes, prev, end) {
             let mut inner: Vec<TokenTree> = Vec::new();
             for l in &lexes[i..end] {
-                push(l, krate, &mut inner);
+                push(l, krate, lift, &mut inner);
             }
             let span = inner.last().map_or_else(Span::call_site, TokenTree::span);
             out.extend(lhs_call(krate, inner, span));
@@ -200,7 +234,7 @@ fn rewrite(stream: TokenStream, krate: &TokenTree) -> TokenStream {
             continue;
         }
         for l in &lexes[i..end] {
-            push(l, krate, &mut out);
+            push(l, krate, lift, &mut out);
         }
         i = end;
     }
@@ -208,11 +242,11 @@ fn rewrite(stream: TokenStream, krate: &TokenTree) -> TokenStream {
 }
 
 /// A lexeme's tokens, groups rewritten recursively.
-fn push(l: &Lex, krate: &TokenTree, out: &mut Vec<TokenTree>) {
+fn push(l: &Lex, krate: &TokenTree, lift: bool, out: &mut Vec<TokenTree>) {
     match l {
         Lex::Op(_, toks) => out.extend(toks.iter().cloned()),
         Lex::Tree(TokenTree::Group(g)) => {
-            let mut ng = Group::new(g.delimiter(), rewrite(g.stream(), krate));
+            let mut ng = Group::new(g.delimiter(), rewrite(g.stream(), krate, lift));
             ng.set_span(g.span());
             out.push(TokenTree::Group(ng));
         }

@@ -13,6 +13,7 @@ pub mod error;
 pub mod events;
 pub mod integrator;
 pub mod kalman;
+mod lhs;
 pub mod linalg;
 pub mod methods;
 pub mod models;
@@ -34,7 +35,9 @@ pub use num_dual;
 
 #[doc(hidden)]
 pub mod __private {
+    pub use crate::lhs::Lhs;
     pub use num_traits::Signed;
+    pub use reckon_macros::lift_literals;
 
     /// `vector!`: an array as a column vector.
     pub fn vector_from<T: nalgebra::Scalar, const N: usize>(a: [T; N]) -> nalgebra::SVector<T, N> {

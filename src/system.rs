@@ -249,9 +249,11 @@ where
 /// `model!(|t, x: [S; N]| body)` for a fixed-size state `SVector<S, N>`,
 /// `model!(|t, x: [S; Dyn]| body)` for a `DVector<S>`, and `, u: [M]` after the state
 /// for `M` held inputs (`u: &[f64]`). The body is written once and compiled twice,
-/// with `S = f64` and with `S` a num-dual number (three times with `t: S`), so it must be generic in spirit:
-/// put `f64` constants on the right (`x[0] * 2.0`, not `2.0 * x[0]`) or lift them
-/// with `S::from(2.0)`. Captured variables are moved into every copy: capture
+/// with `S = f64` and with `S` a num-dual number (three times with `t: S`), so it must be generic in spirit.
+/// Float literals may stand on either side of an operator (`2.0 * x[0]`, see below);
+/// a captured `f64` variable goes on the right (`x[0] * mu`) or is lifted
+/// (`S::from(mu) * x[0]`), and so does a value that does not depend on the state
+/// (`S::from(u[1])`). Captured variables are moved into every copy: capture
 /// `Copy` values or references.
 ///
 /// ```
@@ -321,19 +323,87 @@ where
 /// let f = reckon::model!(|_t, x: [f64; 2]| reckon::vector![x[1], -x[0]]);
 /// ```
 ///
-/// A constant on the *left* of a state value, `2.0 * x[0]`, does not compile in the dual
-/// copy: Rust's orphan rule forbids any crate but num-dual to define `f64 × dual`, and the
-/// compiler then lists every `Mul` impl for `f64`. Write `x[0] * 2.0` or
-/// `S::from(2.0) * x[0]`:
+/// **Literals on the left.** `2.0 * x[0]` has no meaning in the dual copy by itself:
+/// Rust's orphan rule lets no crate but num-dual define `f64 × dual`. So `model!`
+/// rewrites every float literal that is the left operand of a binary `+ - * /` into a
+/// reckon type with those operators (`Lhs(2.0) * x[0]`, a call, so precedence is
+/// unchanged). The values are bit for bit Rust's `f64` ones, and the dual copy gets the
+/// derivative of the expression as written:
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::{vector, Matrix2};
+/// // Van der Pol, μ = 1, written as on paper
+/// let f = model!(|_t, x: [S; 2]| vector![2.0 * x[1] - x[1], (1.0 - x[0] * x[0]) * x[1] - x[0]]);
+/// let (x, mut dx, mut j) = (vector![2.0, 0.5], vector![0.0, 0.0], Matrix2::zeros());
+/// f.rhs(0.0, &x, &[], &mut dx);
+/// assert_eq!(dx, vector![2.0 * 0.5 - 0.5, (1.0 - 2.0 * 2.0) * 0.5 - 2.0]);
+/// f.jacobian(0.0, &x, &[], &mut j);
+/// assert_eq!(j, Matrix2::new(0.0, 1.0, -2.0 * 2.0 * 0.5 - 1.0, 1.0 - 2.0 * 2.0));
+/// ```
+///
+/// A negated literal is one operand (`-3.0 * x` is Rust's `(-3.0) * x`), and a literal
+/// on the left of `/` gives the quotient rule:
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::{vector, Matrix1};
+/// let f = model!(|_t, x: [S; 1]| vector![-3.0 * x[0] + 2.0 / x[0]]);
+/// let (mut dx, mut j) = (vector![0.0], Matrix1::zeros());
+/// f.rhs(0.0, &vector![4.0], &[], &mut dx);
+/// assert_eq!(dx[0], -3.0 * 4.0 + 2.0 / 4.0);
+/// f.jacobian(0.0, &vector![4.0], &[], &mut j);
+/// assert_eq!(j[(0, 0)], -3.0 - 2.0 / 16.0);
+/// ```
+///
+/// An expression of literals alone is still an `f64`, and integer literals are never
+/// touched (`2 * n` stays a `usize`):
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::{DVector, DMatrix};
+/// let f = model!(|_t, x: [S; Dyn]| {
+///     let half: f64 = 1.0 - 0.5;
+///     let n = x.len();
+///     DVector::from_fn(n, |i, _| x[(i + 2 * n - 1) % n].clone() * half)
+/// });
+/// let (mut dx, mut j) = (DVector::zeros(3), DMatrix::zeros(3, 3));
+/// f.rhs(0.0, &DVector::from_vec(vec![1.0, 2.0, 3.0]), &[], &mut dx);
+/// assert_eq!(dx.as_slice(), &[1.5, 0.5, 1.0]);
+/// f.jacobian(0.0, &DVector::from_vec(vec![1.0, 2.0, 3.0]), &[], &mut j);
+/// assert_eq!(j[(0, 2)], 0.5);
+/// ```
+///
+/// Literals inside macro calls are lifted too:
+///
+/// ```
+/// use reckon::{model, vector, System};
+/// let f = model!(|_t, x: [S; 2]| vector![2.0 * x[1], 0.5 * x[0] - 1.0]);
+/// let mut dx = vector![0.0, 0.0];
+/// f.rhs(0.0, &vector![3.0, 4.0], &[], &mut dx);
+/// assert_eq!(dx, vector![8.0, 0.5]);
+/// ```
+///
+/// A captured `f64` *variable* on the left, `mu * x[0]`, cannot be lifted this way (the
+/// macro sees a name, not a number) and does not compile in the dual copy, where the
+/// compiler lists every `Mul` impl for `f64`. Write `x[0] * mu` or `S::from(mu) * x[0]`.
+/// The same holds for any `f64` expression on the left: `u[0] * x[1]`, `(2.0 * mu) * x[0]`,
+/// or `2.0 * 3.0 * x[0]` (that is `(2.0 * 3.0) * x[0]`; write `6.0 * x[0]`):
 ///
 /// ```compile_fail,E0277
-/// let f = reckon::model!(|_t, x: [S; 1]| reckon::vector![2.0 * x[0]]);
+/// let mu = 2.0;
+/// let f = reckon::model!(|_t, x: [S; 1]| reckon::vector![mu * x[0]]);
 /// ```
 ///
 /// ```
-/// let f = reckon::model!(|_t, x: [S; 1]| reckon::vector![S::from(2.0) * x[0] + x[0] * 2.0]);
+/// let mu = 2.0;
+/// let f = reckon::model!(|_t, x: [S; 1]| reckon::vector![S::from(mu) * x[0] + x[0] * mu]);
 /// # let _ = f;
 /// ```
+///
+/// Only `f64` literals are lifted: `2.0f32 * y` is left as written, but an unsuffixed
+/// literal is taken for an `f64`, so `2.0 * y` with `y: f32` does not compile in a body
+/// (write `y * 2.0`).
 #[macro_export]
 macro_rules! model {
     (|$t:tt, $x:ident : [f64; $($rest:tt)*] $($more:tt)*) => {
@@ -416,7 +486,7 @@ macro_rules! model {
                 let __xd = __x.map(<$s>::from);
                 let $x = &__xd;
                 let $t: $s = $crate::num_dual::Dual64::new(__t, 1.0);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
         ))
     };
@@ -436,7 +506,7 @@ macro_rules! model {
                 let __xd = __x.map(<$s>::from);
                 let $x = &__xd;
                 let $t: $s = $crate::num_dual::Dual64::new(__t, 1.0);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
         ))
     };
@@ -456,7 +526,7 @@ macro_rules! model {
                 #[allow(dead_code)]
                 type $s = f64;
                 $crate::model!(@tlet $mode, $t, $s, __t);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
@@ -470,7 +540,7 @@ macro_rules! model {
                 #[allow(dead_code)]
                 type $s = $crate::num_dual::DualSVec64<{ $n }>;
                 $crate::model!(@tlet $mode, $t, $s, __t);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
         ), fixed, $n, $t, $x, $s, $u, $body)
     };
@@ -486,7 +556,7 @@ macro_rules! model {
                 #[allow(dead_code)]
                 type $s = f64;
                 $crate::model!(@tlet $mode, $t, $s, __t);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
@@ -500,7 +570,7 @@ macro_rules! model {
                 #[allow(dead_code)]
                 type $s = $crate::num_dual::DualDVec64;
                 $crate::model!(@tlet $mode, $t, $s, __t);
-                $body
+                $crate::__private::lift_literals!($crate, $body)
             },
         ), dyn, $t, $x, $s, $u, $body)
     };

@@ -3,7 +3,7 @@ use reckon::prelude::*;
 
 fn main() {
     // Van der Pol, μ = 1: y1' = y2, y2' = μ(1 − y1²)y2 − y1
-    let vdp = model!(|_t, y: [S; 2]| vector![y[1], (-y[0] * y[0] + 1.0) * y[1] - y[0]]);
+    let vdp = model!(|_t, y: [S; 2]| vector![y[1], (1.0 - y[0] * y[0]) * y[1] - y[0]]);
     let problem = Problem::new(&vdp, vector![2.0, 0.0], (0.0, 20.0));
     let rk = problem.solve(Dopri5::default(), &Options::default().rtol(1e-8).atol(1e-8)).unwrap();
     let ie = problem.solve(ImplicitEuler::default(), &Options::default().fixed(1e-3)).unwrap();

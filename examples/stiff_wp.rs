@@ -52,8 +52,11 @@ fn refs() {
     }
 }
 
+/// A contender of one cell: who, its rtol, one solve.
+type Contender<'a> = (Who, f64, Box<dyn FnMut() -> Run + 'a>);
+
 /// Median and minimum seconds per solve of each contender of one cell, interleaved.
-fn interleaved(runs: &mut [(Who, f64, Box<dyn FnMut() -> Run + '_>)]) -> Vec<(f64, f64)> {
+fn interleaved(runs: &mut [Contender<'_>]) -> Vec<(f64, f64)> {
     let m = runs.len();
     let mut reps = vec![1usize; m];
     let mut rounds = 31;
@@ -111,7 +114,7 @@ where
             .filter_map(|&w| tol_index(case, w, l).map(|k| (w, k)))
             .collect();
         let ds = models.iter().find(|m| m.0 == Who::Diffsol).map(|m| make(grid(m.1)));
-        let mut runs: Vec<(Who, f64, Box<dyn FnMut() -> Run + '_>)> = Vec::new();
+        let mut runs: Vec<Contender<'_>> = Vec::new();
         let mut work = Vec::new();
         for &(who, k) in &models {
             let rtol = grid(k);

@@ -132,6 +132,22 @@ pub const HIRES_REF: [f64; 8] = [
 /// Robertson's state at `t = 1e11` (Test Set `rober.f`).
 pub const ROBERTSON_REF_1E11: [f64; 3] = [2.083340149701255e-8, 8.333360770334713e-14, 0.999_999_979_166_505];
 
+/// Robertson's state at `t = 1e5` from `y0 = (1, 0, 0)` (issue 9's work–precision end point):
+/// scipy 1.17 `Radau` at `rtol = 1e-13`, `atol = 1e-24` with the exact Jacobian (it agrees
+/// with its own `rtol = 1e-12` run to 14.4 significant digits). Independently, reckon's
+/// [`Rodas5P`](crate::methods::Rodas5P) at `rtol = 1e-13`, `atol = 1e-22` agrees to 12.4
+/// significant digits in every component and [`Bdf`](crate::methods::Bdf) to 11.1
+/// (`examples/stiff_wp.rs refs`).
+pub const ROBERTSON_REF_1E5: [f64; 3] = [1.786592114209994e-2, 7.274751468436521e-8, 0.982_134_006_110_384_5];
+
+/// OREGO's state at `t = 30` from `y0 = (1, 2, 3)` (issue 9's work–precision end point):
+/// scipy 1.17 `Radau` at `rtol = 1e-13`, `atol = 1e-14` with the exact Jacobian (it agrees
+/// with its own `rtol = 1e-12` run to 14.0 significant digits). Independently, reckon's
+/// [`Rodas5P`](crate::methods::Rodas5P) at `rtol = 1e-13`, `atol = 1e-14` agrees to 12.7
+/// significant digits in every component and [`Bdf`](crate::methods::Bdf) to 11.5
+/// (`examples/stiff_wp.rs refs`).
+pub const OREGO_REF_30: [f64; 3] = [1.0006614671804968, 1512.7789373482335, 10358.543127672505];
+
 /// Van der Pol μ = 1000 from `(2, 0)` at `t = 2000` (Test Set `vdpolm.f`).
 pub const VDPOLM_REF_2000: [f64; 2] = [1.706167732170469, -0.8928097010248125e-3];
 

@@ -220,3 +220,44 @@ fn event_that_cannot_be_located() {
     let r = p.solve(ExplicitEuler, &Options::default().fixed(1.0));
     assert!(matches!(r, Err(Error::EventLocation { index: 0, .. })), "{r:?}");
 }
+
+/// The stiff methods fail the same typed ways: Newton divergence at the smallest
+/// sub-step (BDF; the same x' = x² blow-up), a singular iteration matrix at a fixed step
+/// (BDF order 1: I − hJ; Rodas5P: I/(hγ) − J), and a step-size underflow at a blow-up
+/// (adaptive, both).
+#[test]
+fn stiff_methods_fail_with_typed_errors() {
+    use reckon::methods::{Bdf, Rodas5P};
+    let sq = model!(|_t, x: [S; 1]| vector![x[0] * x[0]]);
+    let r =
+        Problem::new(&sq, vector![1.0], (0.0, 2.0)).solve(Bdf::bdf().fixed_order(1), &Options::default().fixed(0.4));
+    match r {
+        Err(Error::NewtonDiverged { t, h, .. }) => {
+            assert!(t > 0.4 && t < 1.0, "t = {t}");
+            assert!(h > 0.0 && h < 0.4 / 512.0, "h = {h}");
+        }
+        other => panic!("BDF: expected NewtonDiverged, got {other:?}"),
+    }
+    // x' = 10x with h = 0.1: I − hJ = 0 for BDF1 (plain BDF, α₁ = 1)
+    let f = model!(|_t, x: [S; 1]| vector![x[0] * 10.0]);
+    let r = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Bdf::bdf().fixed_order(1), &Options::default().fixed(0.1));
+    assert_eq!(r.unwrap_err(), Error::SingularMatrix { t: 0.0, h: 0.1 });
+    // Rodas5P: I/(hγ) − J = 0 when J = 1/(hγ) to the last bit: x' = c·x, c = 1/(hγ)
+    let h = 0.5;
+    let c = 1.0 / (h * reckon::methods::rodas5p::GAMMA);
+    let g = model!(|_t, x: [S; 1]| vector![x[0] * c]);
+    let r = Problem::new(&g, vector![1.0], (0.0, 2.0 * h)).solve(Rodas5P::default(), &Options::default().fixed(h));
+    assert!(matches!(r, Err(Error::SingularMatrix { t, .. }) if t == 0.0), "{r:?}");
+    // adaptive runs into the blow-up at t = 1: a typed error there, never a panic or ∞
+    for r in [
+        Problem::new(&sq, vector![1.0], (0.0, 2.0)).solve(Bdf::default(), &Options::default()),
+        Problem::new(&sq, vector![1.0], (0.0, 2.0)).solve(Rodas5P::default(), &Options::default()),
+    ] {
+        match r {
+            Err(Error::StepSizeUnderflow { t, .. } | Error::NewtonDiverged { t, .. } | Error::NonFinite { t, .. }) => {
+                assert!((t - 1.0).abs() < 1e-2, "t = {t}")
+            }
+            other => panic!("expected a typed failure at t = 1, got {:?}", other.map(|s| s.last().0)),
+        }
+    }
+}

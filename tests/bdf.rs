@@ -283,3 +283,38 @@ fn typed_errors() {
         .unwrap_err();
     assert!(matches!(e, Error::NonFinite { .. }), "{e:?}");
 }
+
+/// Events are located on BDF's dense output; Rodas5P and Auto the same.
+#[test]
+fn events_on_the_stiff_methods() {
+    use reckon::methods::{Auto, Rodas5P};
+    use reckon::{Direction, Event};
+    // x' = −(x − cos t)·50: x follows cos t closely; x = 0 first near t = π/2 + 1/50
+    let f = model!(|t: S, x: [S; 1]| vector![(x[0] - t.cos()) * -50.0]);
+    let p = |m: &str| {
+        let zero = Event::new(|_t, x: &nalgebra::SVector<f64, 1>| x[0])
+            .direction(Direction::Falling)
+            .terminal();
+        let prob = Problem::new(&f, Vector1::new(1.0), (0.0, 5.0)).event(zero);
+        let o = Options::default().rtol(1e-10).atol(1e-12);
+        match m {
+            "bdf" => prob.solve(Bdf::default(), &o),
+            "rodas5p" => prob.solve(Rodas5P::default(), &o),
+            _ => prob.solve(Auto::default(), &o),
+        }
+        .unwrap()
+    };
+    // exact: x = (2500 cos t + 50 sin t)/2501 + (1/2501)e^{−50t}; its zero by bisection
+    let exact = |t: f64| (2500.0 * t.cos() + 50.0 * t.sin()) / 2501.0 + (-50.0 * t).exp() / 2501.0;
+    let (mut a, mut b) = (1.5, 1.7);
+    for _ in 0..100 {
+        let m = 0.5 * (a + b);
+        if exact(m) > 0.0 { a = m } else { b = m }
+    }
+    for m in ["bdf", "rodas5p", "auto"] {
+        let s = p(m);
+        let t = s.last().0;
+        assert_eq!(s.events.len(), 1, "{m}");
+        assert!((t - a).abs() < 1e-7, "{m}: event at {t}, exact {a}");
+    }
+}

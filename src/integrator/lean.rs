@@ -54,7 +54,7 @@ where
             }
             let resolvable = last || h.abs() > 10.0 * f64::EPSILON * self.tau.abs();
             if !(resolvable && h.abs() > 0.0 && h.abs() < f64::INFINITY) {
-                return Err(self.underflow(h));
+                return Err(self.underflow(h, failures));
             }
             self.attempts += 1;
             let outcome = self
@@ -75,7 +75,6 @@ where
                 continue;
             }
             failures = 0;
-            self.last_failure = None;
             self.f.stats.accepted += 1;
             let (t_new, tau_new) = if last {
                 (t_end, end_tau)

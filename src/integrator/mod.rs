@@ -57,7 +57,8 @@ where
     max_steps: usize,
     h_max: f64,
     max_failures: usize,
-    /// Why the last implicit attempt failed, while no step has been accepted since.
+    /// Why the last implicit attempt failed (current while the step's failure count is
+    /// non-zero).
     last_failure: Option<Failure>,
     segment: Option<usize>,
     keep_dense: bool,
@@ -400,7 +401,7 @@ where
             // a step that lands on a stop advances to it exactly, however small
             let resolvable = land.is_some() || h.abs() > 10.0 * f64::EPSILON * self.tau.abs();
             if !(resolvable && h.abs() > 0.0 && h.abs() < f64::INFINITY) {
-                return Err(self.underflow(h));
+                return Err(self.underflow(h, failures));
             }
             self.attempts += 1;
             let outcome = self
@@ -437,20 +438,7 @@ where
         let singular_fixed = !self.adaptive && why == Failure::Singular;
         self.last_failure = Some(why);
         if *failures > self.max_failures || singular_fixed {
-            return Err(match why {
-                Failure::NonFinite { t, component } => Error::NonFinite {
-                    t,
-                    quantity: crate::error::Quantity::Derivative,
-                    component,
-                },
-                Failure::Newton { iterations, residual } => Error::NewtonDiverged {
-                    t: self.t,
-                    h,
-                    iterations,
-                    residual,
-                },
-                Failure::Singular => Error::SingularMatrix { t: self.t, h },
-            });
+            return Err(self.failure_error(why, h));
         }
         if self.adaptive {
             self.h = 0.5 * h.abs();
@@ -461,16 +449,31 @@ where
         Ok(())
     }
 
-    /// The step size shrank below what `t − t0` resolves. When it shrank because `f` was
-    /// non-finite at every Newton attempt, that is the error: say where `f` broke.
-    #[cold]
-    fn underflow(&mut self, h: f64) -> Error {
-        match self.last_failure.take() {
-            Some(Failure::NonFinite { t, component }) => Error::NonFinite {
+    /// The typed error for an implicit solve that failed at `h` for good.
+    fn failure_error(&self, why: Failure, h: f64) -> Error {
+        match why {
+            Failure::NonFinite { t, component } => Error::NonFinite {
                 t,
                 quantity: crate::error::Quantity::Derivative,
                 component,
             },
+            Failure::Newton { iterations, residual } => Error::NewtonDiverged {
+                t: self.t,
+                h,
+                iterations,
+                residual,
+            },
+            Failure::Singular => Error::SingularMatrix { t: self.t, h },
+        }
+    }
+
+    /// The step size shrank below what `t − t0` resolves. When it shrank because `f` was
+    /// non-finite at the Newton attempts since the last accepted step (`failures` of
+    /// them, the last one recorded), that is the error: say where `f` broke.
+    #[cold]
+    fn underflow(&self, h: f64, failures: usize) -> Error {
+        match self.last_failure {
+            Some(why @ Failure::NonFinite { .. }) if failures > 0 => self.failure_error(why, h),
             _ => Error::StepSizeUnderflow { t: self.t, h },
         }
     }
@@ -542,7 +545,6 @@ where
 
     fn accept(&mut self, h: f64, err: f64, land: Option<f64>, mut t_new: f64, tau_new: f64) -> Result<()> {
         self.f.stats.accepted += 1;
-        self.last_failure = None;
         if self.adaptive {
             self.check_stiffness(h, t_new);
         }

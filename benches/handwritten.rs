@@ -173,6 +173,13 @@ pub fn van_der_pol(_t: f64, y: &[f64; 2]) -> [f64; 2] {
     [y[1], (1.0 - y[0] * y[0]) * y[1] - y[0]]
 }
 
+/// [`van_der_pol`]'s body as a reckon `model!`, operation for operation, so that reckon
+/// and the hand loop run the same model code (`problems::van_der_pol(μ)` also multiplies
+/// by its captured μ, which the μ = 1 body here does not).
+pub fn van_der_pol_model() -> impl reckon::DualSystem<nalgebra::Const<2>> + Clone {
+    reckon::model!(|_, y: [S; 2]| nalgebra::vector![y[1], (1.0 - y[0] * y[0]) * y[1] - y[0]])
+}
+
 pub fn arenstorf(_t: f64, y: &[f64; 4]) -> [f64; 4] {
     let mu = 0.012277471;
     let mu1 = 1.0 - mu;

@@ -98,7 +98,14 @@ fn rk45(c: &mut Criterion) {
         ARENSTORF_Y0,
         ARENSTORF_T,
     );
-    bench_problem(c, "vdp1", van_der_pol(1.0), handwritten::van_der_pol, [2.0, 0.0], 20.0);
+    bench_problem(
+        c,
+        "vdp1",
+        handwritten::van_der_pol_model(),
+        handwritten::van_der_pol,
+        [2.0, 0.0],
+        20.0,
+    );
 }
 
 /// The model call alone: a `model!` closure through `System::rhs` vs the same body as a

@@ -34,6 +34,9 @@ impl Tolerance {
     {
         let n = dim.value();
         let v = match self {
+            Tolerance::Scalar(a) if a.is_finite() && *a >= 0.0 => {
+                return Ok(OVector::<f64, D>::from_element_generic(dim, nalgebra::U1, *a));
+            }
             Tolerance::Scalar(a) => OVector::<f64, D>::from_element_generic(dim, nalgebra::U1, *a),
             Tolerance::PerComponent(v) => {
                 if v.len() != n {

@@ -123,30 +123,27 @@ impl Options {
 
     /// Check every field; the integrator calls this before it starts.
     pub fn validate(&self) -> Result<()> {
+        // the first value of a tolerance failing `bad` (a scalar is checked without a loop)
+        let first = |tol: &Tolerance, bad: fn(f64) -> bool| match tol {
+            Tolerance::Scalar(v) => bad(*v).then_some(*v),
+            Tolerance::PerComponent(v) => v.iter().copied().find(|v| bad(*v)),
+        };
         for (what, tol) in [("rtol", &self.rtol), ("atol", &self.atol)] {
-            let vals: &[f64] = match tol {
-                Tolerance::Scalar(v) => std::slice::from_ref(v),
-                Tolerance::PerComponent(v) => v,
-            };
-            if let Some(v) = vals.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+            if let Some(v) = first(tol, |v| !(v.is_finite() && v >= 0.0)) {
                 return Err(Error::invalid(
                     what,
-                    format!("must be finite and non-negative, got {}", crate::error::Brief(*v)),
+                    format!("must be finite and non-negative, got {}", crate::error::Brief(v)),
                 ));
             }
         }
         // a relative tolerance below the rounding unit cannot be met: every adaptive
         // method would shrink its step to the step limit (scipy raises it to 100·ε)
-        let rtols: &[f64] = match &self.rtol {
-            Tolerance::Scalar(v) => std::slice::from_ref(v),
-            Tolerance::PerComponent(v) => v,
-        };
-        if let Some(v) = rtols.iter().find(|v| **v > 0.0 && **v < MIN_RTOL) {
+        if let Some(v) = first(&self.rtol, |v| v > 0.0 && v < MIN_RTOL) {
             return Err(Error::invalid(
                 "rtol",
                 format!(
                     "{} is below what double precision can meet: use 0 (absolute control only) or at least {MIN_RTOL:e}",
-                    crate::error::Brief(*v)
+                    crate::error::Brief(v)
                 ),
             ));
         }

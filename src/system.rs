@@ -626,6 +626,17 @@ where
         }
     }
 
+    /// `dx ← f(t, x)` like [`rhs_unchecked`](Self::rhs_unchecked), but not counted: a
+    /// kernel that makes a known number of calls adds them to `stats.rhs_evals` at once
+    /// (one memory update per step instead of one per stage).
+    #[inline(always)]
+    pub(crate) fn rhs_uncounted(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
+        self.sys.rhs(t, x, &self.u, dx);
+        if dx.len() != x.len() {
+            self.wrong_length(t, x, dx);
+        }
+    }
+
     /// Record a wrong-length derivative and leave NaN of the right length in its place,
     /// so that the step fails the driver's finiteness check and reports this.
     #[cold]

@@ -52,5 +52,11 @@ fn same_work_as_the_hand_written_loop() {
         ARENSTORF_Y0,
         ARENSTORF_T,
     );
-    compare("vdp", van_der_pol(1.0), handwritten::van_der_pol, [2.0, 0.0], 20.0);
+    compare(
+        "vdp",
+        handwritten::van_der_pol_model(),
+        handwritten::van_der_pol,
+        [2.0, 0.0],
+        20.0,
+    );
 }

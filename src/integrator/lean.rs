@@ -22,77 +22,108 @@ where
             && !self.keep_dense
             && self.problem.events.is_empty()
             && self.until.is_none()
-            && self.stop_idx + 1 == self.stops.len()
-            && self.stops[self.stop_idx].is_finite()
+            && self.stop_idx == self.stops.len()
+            && self.t_end.is_finite()
     }
 
     /// Step to `t_end`, pushing every accepted step; the state afterwards is what the
-    /// same steps through [`step`](Self::step) leave.
+    /// same steps through [`step`](Self::step) leave. The loop keeps the step size,
+    /// time, counters and rejection flag in locals (registers, across the model calls)
+    /// and writes them back before every exit and every call that reads them.
     pub(super) fn run_lean(&mut self, ts: &mut Vec<f64>, xs: &mut Vec<OVector<f64, D>>) -> Result<()> {
         let t0 = self.problem.t0;
-        let t_end = self.stops[self.stop_idx];
+        let t_end = self.t_end;
         let end_tau = t_end - t0;
-        let dir = self.dir;
+        let (dir, h_max, max_steps) = (self.dir, self.h_max, self.max_steps);
+        let (mut h_abs, mut tau, mut t) = (self.h.abs(), self.tau, self.t);
+        let (mut attempts, mut last_rejected) = (self.attempts, self.last_rejected);
+        let (mut accepted, mut rejected) = (0u64, 0u64);
         let mut failures = 0;
+        // the smallest step `t − t0 = tau` still resolves: 10 ulp of tau
+        let mut tiny = 10.0 * f64::EPSILON * tau.abs();
+        macro_rules! sync {
+            () => {
+                self.h = h_abs;
+                self.tau = tau;
+                self.t = t;
+                self.attempts = attempts;
+                self.last_rejected = last_rejected;
+                self.f.stats.accepted += accepted;
+                self.f.stats.rejected += rejected;
+            };
+        }
         loop {
-            if self.attempts >= self.max_steps {
-                return Err(Error::MaxSteps {
-                    t: self.t,
-                    steps: self.attempts,
-                });
+            if attempts >= max_steps {
+                sync!();
+                return Err(Error::MaxSteps { t, steps: attempts });
             }
-            let mut h = dir * self.h.abs().min(self.h_max);
-            let last = dir * (self.tau + 1.01 * h - end_tau) >= 0.0;
+            // `min` by compare: one instruction, and the same as `f64::min` here (h_max is
+            // never NaN; a NaN h_abs gives h_max either way)
+            let mut h = dir * if h_abs < h_max { h_abs } else { h_max };
+            let last = dir * (tau + 1.01 * h - end_tau) >= 0.0;
             if last {
-                h = end_tau - self.tau;
+                h = end_tau - tau;
                 if h == 0.0 {
+                    sync!();
                     self.land_without_step(t_end);
                     ts.push(self.t);
                     xs.push(self.x.clone());
                     return Ok(());
                 }
             }
-            let resolvable = last || h.abs() > 10.0 * f64::EPSILON * self.tau.abs();
-            if !(resolvable && h.abs() > 0.0 && h.abs() < f64::INFINITY) {
+            // a step too small for `tau` to resolve (0 included), ±∞ or NaN: underflow
+            let ha = h.abs();
+            if !(ha < f64::INFINITY && ha > if last { 0.0 } else { tiny }) {
+                sync!();
                 return Err(self.underflow(h, failures));
             }
-            self.attempts += 1;
+            attempts += 1;
             let outcome = self
                 .method
-                .step(&mut self.f, self.t, &self.x, h, &mut self.x_new, &self.w, true)?;
+                .step(&mut self.f, t, &self.x, h, &mut self.x_new, &self.w, true)?;
             let err = match outcome {
                 Outcome::Retry(why) => {
+                    sync!();
+                    (accepted, rejected) = (0, 0);
                     self.retry(why, h, &mut failures)?;
+                    (h_abs, last_rejected) = (self.h.abs(), self.last_rejected);
                     continue;
                 }
                 Outcome::Done { err } => err,
             };
             if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
+                sync!();
                 return Err(self.non_finite(h));
             }
             if err > 1.0 {
-                self.reject(h, err);
+                rejected += 1;
+                h_abs = ha * self.reject_factor(err);
+                last_rejected = true;
                 continue;
             }
             failures = 0;
-            self.f.stats.accepted += 1;
+            accepted += 1;
             let (t_new, tau_new) = if last {
                 (t_end, end_tau)
             } else {
-                (t0 + (self.tau + h), self.tau + h)
+                (t0 + (tau + h), tau + h)
             };
             self.check_stiffness(h, t_new);
             self.method.accept();
             if let Some(to) = self.method.switched() {
                 self.switches.push(super::Switch { t: t_new, to });
             }
-            std::mem::swap(&mut self.x, &mut self.x_new);
-            self.t = t_new;
-            self.tau = tau_new;
-            self.propose(h, err, last);
+            // a copy, not a swap: x_new is overwritten by the next attempt anyway
+            self.x.copy_from(&self.x_new);
+            t = t_new;
+            tau = tau_new;
+            tiny = 10.0 * f64::EPSILON * tau.abs();
+            h_abs = self.accepted_h(h, err, h_abs, last_rejected, last);
+            last_rejected = false;
             ts.push(t_new);
             xs.push(self.x.clone());
             if last {
+                sync!();
                 self.arrive(Some(t_end));
                 return Ok(());
             }

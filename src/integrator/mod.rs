@@ -46,7 +46,10 @@ where
     fixed_h: f64,
     grid_k: u64,
     sub_h: Option<f64>,
+    /// Breakpoints strictly inside the span, in the direction of travel; `t_end` is the
+    /// stop after the last of them (kept apart so that a plain run allocates nothing here).
     stops: Vec<f64>,
+    t_end: f64,
     stop_idx: usize,
     /// A caller's temporary stop ([`Integrator::step_until`]).
     until: Option<f64>,
@@ -78,6 +81,9 @@ impl<'p, 'a, D: Dim, S: System<D>, M: Method<D>> Integrator<'p, 'a, D, S, M>
 where
     DefaultAllocator: Allocator<D>,
 {
+    // inlined so that the caller builds the (large) integrator in place, not in a
+    // temporary it then copies
+    #[inline]
     pub(crate) fn new(problem: &'p Problem<'a, D, S>, mut method: M, opts: &Options) -> Result<Self> {
         opts.validate()?;
         let (t0, t_end, x0) = (problem.t0, problem.t_end, &problem.x0);
@@ -145,7 +151,7 @@ where
                 (Some(k), c.values(k).unwrap_or_default().to_vec())
             }
         };
-        // stops: breakpoints strictly inside the span, in the direction of travel, then t_end
+        // stops: breakpoints strictly inside the span, in the direction of travel (then t_end)
         let inside = |b: f64| dir * (b - t0) > 0.0 && dir * (t_end - b) > 0.0;
         let mut stops: Vec<f64> = opts.breakpoints.iter().copied().filter(|&b| inside(b)).collect();
         if let Some(c) = &problem.controls {
@@ -153,7 +159,6 @@ where
         }
         stops.sort_by(|a, b| (dir * a).total_cmp(&(dir * b)));
         stops.dedup();
-        stops.push(t_end);
 
         let mut f = Eval::new(&problem.system, u);
         method.init(&mut f, t0, x0)?;
@@ -224,6 +229,7 @@ where
             grid_k: 0,
             sub_h: None,
             stops,
+            t_end,
             stop_idx: 0,
             until: None,
             h,
@@ -339,7 +345,7 @@ where
     /// The next time the integrator must land on: the next breakpoint (or `t_end`), or
     /// the caller's `until` when it comes first.
     fn next_stop(&self) -> f64 {
-        let stop = self.stops[self.stop_idx];
+        let stop = self.stop();
         match self.until {
             Some(u) if self.dir * (u - stop) < 0.0 => u,
             _ => stop,
@@ -491,33 +497,52 @@ where
     #[inline]
     fn reject(&mut self, h: f64, err: f64) {
         self.f.stats.rejected += 1;
-        let fac = match self.method.step_factor(false, err) {
+        self.h = h.abs() * self.reject_factor(err);
+        self.last_rejected = true;
+    }
+
+    /// The factor that shrinks a step rejected with estimate `err > 1`.
+    #[inline]
+    fn reject_factor(&mut self, err: f64) -> f64 {
+        match self.method.step_factor(false, err) {
             Some(fac) => fac,
             None if err.is_finite() => self.controller.reject(err),
             None => self.controller.min_factor,
-        };
-        self.h = h.abs() * fac;
-        self.last_rejected = true;
+        }
     }
 
     /// The next step size after an accepted step of size `h` with estimate `err`.
     #[inline]
     fn propose(&mut self, h: f64, err: f64, landed: bool) {
+        self.h = self.accepted_h(h, err, self.h.abs(), self.last_rejected, landed);
+        self.last_rejected = false;
+    }
+
+    /// The step size after an accepted step `h` with estimate `err`, where `proposal`
+    /// was the size planned for it and `last_rejected` says whether a rejection came
+    /// just before: `|h|·fac`, no larger than `|h|` after a rejection, and not below the
+    /// plan when `h` was only shortened to land on a stop.
+    #[inline]
+    fn accepted_h(&mut self, h: f64, err: f64, proposal: f64, last_rejected: bool, landed: bool) -> f64 {
         let fac = match self.method.step_factor(true, err) {
             Some(fac) => fac,
             None => self.controller.accept(err),
         };
-        let proposal = self.h.abs();
         let mut next = h.abs() * fac;
-        if self.last_rejected {
+        if last_rejected {
             next = next.min(h.abs());
         }
         // a step shortened to land on a stop says nothing against the plan
-        if landed && h.abs() < proposal && !self.last_rejected {
+        if landed && h.abs() < proposal && !last_rejected {
             next = next.max(proposal);
         }
-        self.h = next;
-        self.last_rejected = false;
+        next
+    }
+
+    /// The next stop: a breakpoint, or `t_end` after the last.
+    #[inline]
+    fn stop(&self) -> f64 {
+        self.stops.get(self.stop_idx).copied().unwrap_or(self.t_end)
     }
 
     /// Reach `stop` without a step: it is closer than `t − t0` can resolve.
@@ -530,10 +555,10 @@ where
     /// switch inputs, reset the per-interval step count.
     fn arrive(&mut self, land: Option<f64>) {
         let Some(l) = land else { return };
-        if l == self.stops[self.stop_idx] {
+        if l == self.stop() {
             self.attempts = 0;
             self.stop_idx += 1;
-            if self.stop_idx == self.stops.len() {
+            if self.stop_idx > self.stops.len() {
                 self.done = true;
             } else {
                 self.enter_segment();

@@ -114,11 +114,14 @@ fn scd<const N: usize>(y: &SVector<f64, N>, r: &[f64; N]) -> f64 {
 #[test]
 fn test_set_end_states() {
     // (rtol, required mescd per problem: ROBER, VDPOLM, OREGO, HIRES)
-    // Issue 9 asks 4.5 at rtol 1e-6; reckon's NDF reaches VDPOLM 4.32 and OREGO 4.15 there,
-    // as scipy 1.x's BDF (the same NDF formulas and controller) does: 4.38 and 4.16 at rtol
-    // = atol = 1e-6 with the exact Jacobian (5.26 and 5.02 at 1e-7). Those two are pinned
-    // at what the method reaches, not at the target; Rodas5P meets it (tests/rodas.rs).
-    let cases = [(1e-6, [5.2, 4.2, 4.0, 4.8]), (1e-10, [9.0, 7.7, 7.3, 8.5])];
+    // Issue 9 asks 4.5 at rtol 1e-6 and 7 at 1e-10. With scipy's controller (proposals
+    // aiming at 0.9^{k+1} of the tolerance, h held for k + 1 steps) reckon reached VDPOLM
+    // 4.32 and OREGO 4.15 at 1e-6, as scipy 1.x's BDF does (4.38, 4.16): their end error
+    // is the one-signed sum of the local errors of the long steps on the slow branches.
+    // Aiming at 1/6 of the tolerance and shrinking h as soon as the estimate asks (see
+    // Bdf) gives, measured: 1e-6: 6.83 4.86 4.85 5.56 (was 5.42 4.32 4.15 4.99);
+    // 1e-10: 9.81 8.37 7.99 9.15 (was 9.38 7.90 7.57 8.72), with fewer f evaluations.
+    let cases = [(1e-6, [5.5, 4.6, 4.6, 5.2]), (1e-10, [9.4, 8.0, 7.7, 8.8])];
     for (rtol, need) in cases {
         let o = |atol: f64| Options::default().rtol(rtol).atol(atol).max_steps(1_000_000);
         let s = Problem::new(robertson(), vector![1.0, 0.0, 0.0], (0.0, 1e11))
@@ -217,8 +220,9 @@ fn dense_output_between_steps() {
     assert!(linear > 100.0 * mid, "linear {linear} vs dense {mid}");
 
     // Van der Pol μ = 10 at rtol 1e-8: scipy's BDF takes 588 steps with a largest error
-    // 3.3e-4 at its step ends (phase error on the fast branches); reckon's matches, and
-    // the dense output adds nothing to it
+    // 3.3e-4 at its step ends (phase error on the fast branches), as reckon's did with
+    // scipy's controller (583 steps, 3.7e-4, 1787 f); aiming at 1/6 of the tolerance it
+    // takes 688 steps for 7.9e-5 in 1466 f. The dense output adds nothing to it
     let f = van_der_pol(10.0);
     let p = Problem::new(&f, vector![2.0, 0.0], (0.0, 12.0));
     let sol = p
@@ -238,7 +242,7 @@ fn dense_output_between_steps() {
     }
     println!("VdP: ends {ends:.3e} mid {mid:.3e} steps {}", sol.t.len());
     assert!((500..700).contains(&sol.t.len()), "{} steps", sol.t.len());
-    assert!(ends < 1e-3 && mid < 1.5 * ends, "ends {ends}, midpoints {mid}");
+    assert!(ends < 2e-4 && mid < 1.5 * ends, "ends {ends}, midpoints {mid}");
 }
 
 #[test]

@@ -9,7 +9,8 @@
 //! `benches/common/stiff.rs`; digits and tolerance pairing documented there). The work
 //! counters and the digits reached of every contender are printed before each group.
 //! A contender that does not reach a cell, or that takes longer than [`SLOW`] per solve
-//! (implicit Euler at 5 digits on Van der Pol), is left out of the timing and said so.
+//! (implicit Euler at 5 digits on Van der Pol and at 7 on HIRES), is left out of the
+//! timing and said so.
 
 #[path = "common/stiff.rs"]
 mod stiff;

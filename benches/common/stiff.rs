@@ -381,19 +381,19 @@ pub const LEVELS: [f64; 3] = [3.0, 5.0, 7.0];
 /// the search's budget.
 pub const TOLS: &[(Case, Who, [Option<u32>; 3])] = &[
     (Case::Rober, Who::ImplicitEuler, [Some(24), Some(40), None]),
-    (Case::Rober, Who::Bdf, [Some(14), Some(23), Some(33)]),
+    (Case::Rober, Who::Bdf, [Some(11), Some(21), Some(32)]),
     (Case::Rober, Who::Rodas5P, [Some(8), Some(16), Some(26)]),
     (Case::Rober, Who::Diffsol, [Some(11), Some(21), Some(32)]),
     (Case::Vdpol, Who::ImplicitEuler, [Some(26), Some(42), None]),
-    (Case::Vdpol, Who::Bdf, [Some(18), Some(27), Some(37)]),
+    (Case::Vdpol, Who::Bdf, [Some(17), Some(25), Some(34)]),
     (Case::Vdpol, Who::Rodas5P, [Some(13), Some(19), Some(27)]),
     (Case::Vdpol, Who::Diffsol, [Some(15), Some(24), Some(36)]),
     (Case::Orego, Who::ImplicitEuler, [Some(24), Some(40), None]),
-    (Case::Orego, Who::Bdf, [Some(15), Some(23), Some(32)]),
+    (Case::Orego, Who::Bdf, [Some(13), Some(21), Some(29)]),
     (Case::Orego, Who::Rodas5P, [Some(11), Some(16), Some(25)]),
     (Case::Orego, Who::Diffsol, [Some(15), Some(24), Some(34)]),
     (Case::Hires, Who::ImplicitEuler, [Some(19), Some(34), Some(50)]),
-    (Case::Hires, Who::Bdf, [Some(17), Some(25), Some(33)]),
+    (Case::Hires, Who::Bdf, [Some(15), Some(23), Some(30)]),
     (Case::Hires, Who::Rodas5P, [Some(17), Some(20), Some(28)]),
     (Case::Hires, Who::Diffsol, [Some(13), Some(22), Some(32)]),
 ];

@@ -51,7 +51,7 @@ pub mod __private {
         nalgebra::SMatrix::from_fn(|i, j| rows[i][j].clone())
     }
 }
-pub use options::{Options, StepSize};
+pub use options::{Options, Save, StepSize};
 pub use problem::Problem;
 pub use solution::{Solution, Stats, Switch};
 pub use system::{ClosureModel, DualSystem, System};

@@ -51,6 +51,42 @@ pub struct Options {
     pub stiffness_check: Option<usize>,
     /// Consecutive failed implicit solves at one step before giving up (default 10).
     pub max_step_failures: usize,
+    /// What [`Solution`](crate::Solution) keeps of the run (default: every step).
+    pub save: Save,
+}
+
+/// What a [`Solution`](crate::Solution) keeps: the states at `t0` and at every accepted
+/// step (the default), at every k-th one, at the end only, or at given output times
+/// (`t_eval` in scipy, `saveat` in DifferentialEquations.jl) evaluated from each step's
+/// dense polynomial as the run passes them, without storing the polynomials.
+/// [`Options::dense`] is independent: it keeps the polynomials for
+/// [`Solution::at`](crate::Solution::at).
+///
+/// ```
+/// use reckon::{model, methods::Dopri5, options::Save, Options, Problem};
+/// use nalgebra::vector;
+/// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+/// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
+/// let o = Options::default().rtol(1e-10).atol(1e-12).dense(false);
+/// let s = p.solve(Dopri5::default(), &o.clone().save(Save::At(vec![0.5, 1.0, 1.5]))).unwrap();
+/// assert_eq!(s.t, [0.5, 1.0, 1.5]);
+/// assert!((s.x[1][0] - (-1.0f64).exp()).abs() < 1e-9);
+/// let e = p.solve(Dopri5::default(), &o.save(Save::End)).unwrap();
+/// assert_eq!(e.t, [0.0, 2.0]); // the start and the end
+/// ```
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum Save {
+    /// `t0` and every accepted step (and every breakpoint landed on).
+    #[default]
+    Steps,
+    /// `t0`, every k-th accepted step, and the end.
+    Every(usize),
+    /// `t0` and the end.
+    End,
+    /// Exactly these times, strictly in the direction of integration, inside the span; a
+    /// run that stops early (a terminal event) keeps those it reached and then the state
+    /// where it stopped.
+    At(Vec<f64>),
 }
 
 impl Default for Options {
@@ -66,6 +102,7 @@ impl Default for Options {
             dense: true,
             stiffness_check: Some(1000),
             max_step_failures: 10,
+            save: Save::Steps,
         }
     }
 }
@@ -113,6 +150,12 @@ impl Options {
     /// Keep or drop dense output.
     pub fn dense(mut self, on: bool) -> Self {
         self.dense = on;
+        self
+    }
+
+    /// Choose what the solution keeps ([`Save`]).
+    pub fn save(mut self, save: Save) -> Self {
+        self.save = save;
         self
     }
     /// Stiffness test interval (`None`: off).
@@ -172,6 +215,21 @@ impl Options {
         }
         if self.stiffness_check == Some(0) {
             return Err(Error::invalid("stiffness_check", "interval must be at least 1"));
+        }
+        match &self.save {
+            Save::Every(0) => return Err(Error::invalid("save", "Every(k) needs k ≥ 1")),
+            Save::At(ts) if ts.is_empty() => {
+                return Err(Error::invalid("save", "At(times) needs at least one time"));
+            }
+            Save::At(ts) => {
+                if let Some(t) = ts.iter().find(|t| !t.is_finite()) {
+                    return Err(Error::invalid(
+                        "save",
+                        format!("output times must be finite, got {}", crate::error::Brief(*t)),
+                    ));
+                }
+            }
+            _ => {}
         }
         if let Some(b) = self.breakpoints.iter().find(|b| !b.is_finite()) {
             return Err(Error::invalid(

@@ -21,7 +21,8 @@
 pub use crate::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler};
 pub use crate::nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Matrix4, SMatrix, SVector, Vector2, Vector3, Vector4};
 pub use crate::{
-    Controls, Direction, Error, Event, Options, Problem, Solution, StepSize, System, dvector, matrix, model, vector,
+    Controls, Direction, Error, Event, Options, Problem, Save, Solution, StepSize, System, dvector, matrix, model,
+    vector,
 };
 
 /// A fixed-size column vector, `vector![a, b, c]` → `SVector<_, 3>` (as nalgebra's, but

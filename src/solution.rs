@@ -140,6 +140,24 @@ where
         (self.t[n], &self.x[n])
     }
 
+    /// Bytes of data kept: `8` per time, `8·n` per state, and per dense segment `24` (its
+    /// three times) plus `8·n` per coefficient vector (heap and inline alike; `Vec`
+    /// headers and spare capacity are not counted).
+    ///
+    /// ```
+    /// use reckon::{model, methods::Dopri5, Options, Problem, Save};
+    /// use nalgebra::vector;
+    /// let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
+    /// let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 100.0));
+    /// let s = p.solve(Dopri5::default(), &Options::default().dense(false).save(Save::End)).unwrap();
+    /// assert_eq!(s.kept_bytes(), 2 * 8 + 2 * 16); // two times, two 2-vectors
+    /// ```
+    pub fn kept_bytes(&self) -> usize {
+        let n = self.x.first().map_or(0, |x| x.len());
+        let seg = |s: &DenseSegment<D>| 24 + s.c.len() * 8 * n;
+        self.t.len() * 8 + self.x.len() * 8 * n + self.dense.iter().map(seg).sum::<usize>()
+    }
+
     /// The dense segments (one per accepted step), empty when dense output was off.
     pub fn dense_segments(&self) -> &[DenseSegment<D>] {
         &self.dense

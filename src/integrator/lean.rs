@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::methods::{Method, Outcome};
 use crate::system::System;
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, Dim, OVector};
+use nalgebra::{DefaultAllocator, Dim};
 
 impl<D: Dim, S: System<D>, M: Method<D>> Integrator<'_, '_, D, S, M>
 where
@@ -30,7 +30,7 @@ where
     /// same steps through [`step`](Self::step) leave. The loop keeps the step size,
     /// time, counters and rejection flag in locals (registers, across the model calls)
     /// and writes them back before every exit and every call that reads them.
-    pub(super) fn run_lean(&mut self, ts: &mut Vec<f64>, xs: &mut Vec<OVector<f64, D>>) -> Result<()> {
+    pub(super) fn run_lean(&mut self, mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
         let t0 = self.problem.t0;
         let t_end = self.t_end;
         let end_tau = t_end - t0;
@@ -66,8 +66,7 @@ where
                 if h == 0.0 {
                     sync!();
                     self.land_without_step(t_end);
-                    ts.push(self.t);
-                    xs.push(self.x.clone());
+                    keep(self.t, &self.x);
                     return Ok(());
                 }
             }
@@ -120,8 +119,7 @@ where
             tiny = 10.0 * f64::EPSILON * tau.abs();
             h_abs = self.accepted_h(h, err, h_abs, last_rejected, last);
             last_rejected = false;
-            ts.push(t_new);
-            xs.push(self.x.clone());
+            keep(t_new, &self.x);
             if last {
                 sync!();
                 self.arrive(Some(t_end));

@@ -3,11 +3,12 @@
 
 mod checks;
 mod lean;
+mod save;
 
 use crate::control::{Controller, Weights, initial_step};
 use crate::error::{Error, Result};
 use crate::methods::{Failure, Method, Outcome};
-use crate::options::{Options, StepSize};
+use crate::options::{Options, Save, StepSize};
 use crate::problem::Problem;
 use crate::solution::{DenseSegment, EventHit, Solution, Stats, Stiffness, Switch};
 use crate::system::{Eval, System};
@@ -65,6 +66,10 @@ where
     last_failure: Option<Failure>,
     segment: Option<usize>,
     keep_dense: bool,
+    /// Whether [`solve`](Self::solve) stores the dense segments (`Options::dense`, or
+    /// events without output times).
+    store_dense: bool,
+    save: Save,
     dense: Vec<OVector<f64, D>>,
     last_step: (f64, f64, f64),
     g_prev: Vec<f64>,
@@ -199,7 +204,33 @@ where
                 }
             };
         }
-        let keep_dense = opts.dense || !problem.events.is_empty();
+        if let Save::At(ts) = &opts.save {
+            let inside = |t: f64| dir * (t - t0) >= 0.0 && dir * (t_end - t) >= 0.0;
+            if let Some(t) = ts.iter().find(|t| !inside(**t)) {
+                return Err(Error::invalid(
+                    "save",
+                    format!(
+                        "output time {} is outside the span ({}, {})",
+                        brief(*t),
+                        brief(t0),
+                        brief(t_end)
+                    ),
+                ));
+            }
+            if let Some(w) = ts.windows(2).find(|w| dir * (w[1] - w[0]) <= 0.0) {
+                return Err(Error::invalid(
+                    "save",
+                    format!(
+                        "output times must run in the direction of integration: {} then {}",
+                        brief(w[0]),
+                        brief(w[1])
+                    ),
+                ));
+            }
+        }
+        let at_times = save::Saver::<D>::needs_dense(&opts.save);
+        let keep_dense = opts.dense || !problem.events.is_empty() || at_times;
+        let store_dense = opts.dense || (!problem.events.is_empty() && !at_times);
         let dense = if keep_dense {
             vec![x0.clone(); method.dense_len()]
         } else {
@@ -241,6 +272,8 @@ where
             last_failure: None,
             segment,
             keep_dense,
+            store_dense,
+            save: opts.save.clone(),
             dense,
             last_step: (t0, 0.0, t0),
             g_prev,
@@ -611,17 +644,21 @@ where
                 "an open-ended span (t_end = ±∞) has no end to solve to: drive it with step_until",
             ));
         }
-        let mut t = vec![self.t];
-        let mut x = vec![self.x.clone()];
+        let mut out = save::Saver::new(&self.save, self.dir, self.t, &self.x);
         let mut dense = Vec::new();
         if self.is_lean() {
-            self.run_lean(&mut t, &mut x)?;
+            // every step kept (the default): the lean loop pushes directly
+            if out.every_step() {
+                self.run_lean(|t, x| out.push(t, x))?;
+            } else {
+                self.run_lean(|t, x| out.step(t, x, None))?;
+            }
         }
         while self.step()?.is_some() {
-            t.push(self.t);
-            x.push(self.x.clone());
-            if self.keep_dense {
-                let (t0, h, t1) = self.last_step;
+            let (t0, h, t1) = self.last_step;
+            let seg = self.keep_dense.then_some((t0, h, self.dense.as_slice()));
+            out.step(self.t, &self.x, seg);
+            if self.store_dense {
                 dense.push(DenseSegment {
                     t0,
                     h,
@@ -630,6 +667,7 @@ where
                 });
             }
         }
+        let (t, x) = out.finish();
         Ok(Solution {
             t,
             x,

@@ -1,0 +1,143 @@
+//! What [`Integrator::solve`](super::Integrator::solve) keeps of a run ([`Save`]): the
+//! saver sees every accepted step (its end state, and for output times the step's dense
+//! polynomial) and stores only what was asked for.
+
+use crate::options::Save;
+use crate::solution::horner;
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// A step's start, size and dense coefficients.
+pub(super) type Segment<'c, D> = (f64, f64, &'c [OVector<f64, D>]);
+
+pub(super) struct Saver<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    mode: Mode,
+    /// Output times (`Save::At`) and the index of the next one.
+    at: Vec<f64>,
+    next: usize,
+    dir: f64,
+    /// Accepted steps seen.
+    seen: usize,
+    /// The latest step end, kept for the end of the run when it was not stored.
+    pending: Option<(f64, OVector<f64, D>)>,
+    pub(super) t: Vec<f64>,
+    pub(super) x: Vec<OVector<f64, D>>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Mode {
+    Steps,
+    Every(usize),
+    End,
+    At,
+}
+
+impl<D: Dim> Saver<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    pub(super) fn new(save: &Save, dir: f64, t0: f64, x0: &OVector<f64, D>) -> Self {
+        let (mode, at) = match save {
+            Save::Steps => (Mode::Steps, Vec::new()),
+            Save::Every(k) => (Mode::Every(*k), Vec::new()),
+            Save::End => (Mode::End, Vec::new()),
+            Save::At(ts) => (Mode::At, ts.clone()),
+        };
+        let mut s = Saver {
+            mode,
+            at,
+            next: 0,
+            dir,
+            seen: 0,
+            pending: None,
+            t: Vec::new(),
+            x: Vec::new(),
+        };
+        if mode == Mode::At {
+            while s.next < s.at.len() && s.at[s.next] == t0 {
+                s.t.push(t0);
+                s.x.push(x0.clone());
+                s.next += 1;
+            }
+        } else {
+            s.t.push(t0);
+            s.x.push(x0.clone());
+        }
+        s
+    }
+
+    /// Whether every step is kept ([`Save::Steps`]).
+    pub(super) fn every_step(&self) -> bool {
+        self.mode == Mode::Steps
+    }
+
+    /// Store `(t, x)`.
+    #[inline(always)]
+    pub(super) fn push(&mut self, t: f64, x: &OVector<f64, D>) {
+        self.t.push(t);
+        self.x.push(x.clone());
+    }
+
+    /// Whether the run needs each step's dense polynomial (output times).
+    pub(super) fn needs_dense(save: &Save) -> bool {
+        matches!(save, Save::At(_))
+    }
+
+    /// An accepted step (or a landing on a stop) ending at `(t1, x1)`; `seg` is the step's
+    /// `(t0, h)` and dense coefficients when the run keeps them.
+    #[inline(always)]
+    pub(super) fn step(&mut self, t1: f64, x1: &OVector<f64, D>, seg: Option<Segment<'_, D>>) {
+        match self.mode {
+            Mode::Steps => self.push(t1, x1),
+            Mode::Every(k) => {
+                self.seen += 1;
+                if self.seen.is_multiple_of(k) {
+                    self.t.push(t1);
+                    self.x.push(x1.clone());
+                    self.pending = None;
+                } else {
+                    self.hold(t1, x1);
+                }
+            }
+            Mode::End => self.hold(t1, x1),
+            Mode::At => {
+                self.hold(t1, x1);
+                while self.next < self.at.len() && self.dir * (self.at[self.next] - t1) <= 0.0 {
+                    let ta = self.at[self.next];
+                    let xa = match seg {
+                        Some((t0, h, c)) if ta != t1 && !c.is_empty() => horner(c, (ta - t0) / h),
+                        _ => x1.clone(),
+                    };
+                    self.t.push(ta);
+                    self.x.push(xa);
+                    self.next += 1;
+                }
+            }
+        }
+    }
+
+    /// Keep the latest step end for [`finish`](Self::finish), reusing the buffer.
+    fn hold(&mut self, t1: f64, x1: &OVector<f64, D>) {
+        match &mut self.pending {
+            Some((t, x)) => {
+                *t = t1;
+                x.copy_from(x1);
+            }
+            None => self.pending = Some((t1, x1.clone())),
+        }
+    }
+
+    /// The run ended: store the last step end if it was held back (for output times:
+    /// only when the run stopped before the last of them, at a terminal event).
+    pub(super) fn finish(mut self) -> (Vec<f64>, Vec<OVector<f64, D>>) {
+        let keep = self.mode != Mode::At || self.next < self.at.len();
+        if let Some((t, x)) = self.pending.take().filter(|_| keep) {
+            self.t.push(t);
+            self.x.push(x);
+        }
+        (self.t, self.x)
+    }
+}

@@ -1,0 +1,157 @@
+//! What a `Solution` keeps (`Options::save`): every step, every k-th, the end, or output
+//! times from the dense polynomial; the same steps in every mode, bit for bit, and
+//! exactly the data asked for (`Solution::kept_bytes`).
+
+use nalgebra::{SVector, vector};
+use reckon::methods::{Bdf, Dopri5, ExplicitEuler, Rodas5P};
+use reckon::problems::{lorenz, van_der_pol};
+use reckon::{Error, Event, Options, Problem, Save, StepSize, model};
+
+#[test]
+fn end_and_every_k_keep_a_subset_of_the_same_steps() {
+    let p = Problem::new(lorenz(), vector![1.0, 1.0, 1.0], (0.0, 20.0));
+    let o = Options::default().rtol(1e-8).atol(1e-8).dense(false);
+    let all = p.solve(Dopri5::default(), &o).unwrap();
+    let n = all.t.len();
+    assert!(n > 1000, "{n} steps");
+
+    let end = p.solve(Dopri5::default(), &o.clone().save(Save::End)).unwrap();
+    assert_eq!(end.t, [0.0, 20.0]);
+    assert_eq!(end.x[1], *all.last().1); // bit for bit
+    assert_eq!(end.stats, all.stats);
+    assert_eq!(end.kept_bytes(), 2 * 8 + 2 * 3 * 8);
+    assert_eq!(all.kept_bytes(), n * 8 + n * 3 * 8);
+
+    let k = 7;
+    let every = p.solve(Dopri5::default(), &o.clone().save(Save::Every(k))).unwrap();
+    let mut want: Vec<usize> = (0..n).step_by(k).collect();
+    if *want.last().unwrap() != n - 1 {
+        want.push(n - 1);
+    }
+    assert_eq!(every.t.len(), want.len());
+    for (j, &i) in want.iter().enumerate() {
+        assert_eq!(every.t[j], all.t[i], "entry {j}");
+        assert_eq!(every.x[j], all.x[i], "entry {j}");
+    }
+
+    // the general (non-lean) path: a breakpoint forces it, and the subset rule holds there
+    let ob = o.clone().breakpoints(vec![7.5]);
+    let allb = p.solve(Dopri5::default(), &ob).unwrap();
+    let endb = p.solve(Dopri5::default(), &ob.save(Save::End)).unwrap();
+    assert_eq!(endb.t, [0.0, 20.0]);
+    assert_eq!(endb.x[1], *allb.last().1);
+}
+
+#[test]
+fn output_times_from_the_dense_polynomial() {
+    // x' = −x·(1 + cos t): x = exp(−t − sin t)
+    let f = model!(|t, x: [S; 1]| vector![-x[0] * (t.cos() + 1.0)]);
+    let exact = |t: f64| (-t - t.sin()).exp();
+    let times: Vec<f64> = (0..=40).map(|i| 0.1 * i as f64).collect();
+    let p = Problem::new(&f, vector![1.0], (0.0, 4.0));
+    let o = Options::default()
+        .rtol(1e-10)
+        .atol(1e-12)
+        .dense(false)
+        .save(Save::At(times.clone()));
+    // (method, largest error at the output times)
+    for (name, s, tol) in [
+        ("rk45", p.solve(Dopri5::default(), &o).unwrap(), 1e-9),
+        ("rodas5p", p.solve(Rodas5P::default(), &o).unwrap(), 1e-8),
+        ("bdf", p.solve(Bdf::default(), &o).unwrap(), 1e-8),
+    ] {
+        assert_eq!(s.t, times, "{name}: output times land exactly");
+        assert!(s.dense_segments().is_empty(), "{name}: no polynomials kept");
+        let err =
+            s.t.iter()
+                .zip(&s.x)
+                .map(|(t, x)| (x[0] - exact(*t)).abs())
+                .fold(0.0, f64::max);
+        assert!(err < tol, "{name}: {err:e}");
+        // more than step ends: most output times fall inside steps
+        assert!(s.stats.accepted < times.len() as u64 * 10);
+        assert_eq!(s.kept_bytes(), times.len() * 16);
+    }
+    // the same as interpolating a run that kept its dense output, bit for bit
+    let d = p
+        .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .unwrap();
+    let s = p.solve(Dopri5::default(), &o).unwrap();
+    for (t, x) in s.t.iter().zip(&s.x) {
+        assert_eq!(*x, d.at(*t).unwrap(), "t = {t}");
+    }
+    // fixed-step explicit Euler: linear interpolation between grid points, exact on them
+    let e = p
+        .solve(
+            ExplicitEuler,
+            &Options::default()
+                .step(StepSize::Fixed(0.05))
+                .dense(false)
+                .save(Save::At(vec![0.1, 0.125])),
+        )
+        .unwrap();
+    let g = p
+        .solve(ExplicitEuler, &Options::default().step(StepSize::Fixed(0.05)))
+        .unwrap();
+    assert_eq!(e.x[0], g.x[2]);
+    assert!((e.x[1][0] - 0.5 * (g.x[2][0] + g.x[3][0])).abs() < 1e-15);
+}
+
+#[test]
+fn output_times_backward_and_with_a_terminal_event() {
+    let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
+    // backward from t = 0 to −3 on the harmonic oscillator: x = (cos t, −sin t)
+    let p = Problem::new(&f, vector![1.0, 0.0], (0.0, -3.0));
+    let ts = vec![-0.5, -1.0, -2.5, -3.0];
+    let s = p
+        .solve(
+            Dopri5::default(),
+            &Options::default().rtol(1e-11).atol(1e-12).save(Save::At(ts.clone())),
+        )
+        .unwrap();
+    assert_eq!(s.t, ts);
+    for (t, x) in s.t.iter().zip(&s.x) {
+        assert!(
+            (x[0] - t.cos()).abs() < 1e-9 && (x[1] + t.sin()).abs() < 1e-9,
+            "t = {t}"
+        );
+    }
+    // a terminal event at x₀ = 0 (t = π/2) ends the run: the times before it, then the stop
+    let p =
+        Problem::new(&f, vector![1.0, 0.0], (0.0, 3.0)).event(Event::new(|_t, x: &SVector<f64, 2>| x[0]).terminal());
+    let s = p
+        .solve(
+            Dopri5::default(),
+            &Options::default()
+                .rtol(1e-11)
+                .atol(1e-12)
+                .save(Save::At(vec![0.5, 1.0, 2.0, 2.5])),
+        )
+        .unwrap();
+    assert_eq!(&s.t[..2], [0.5, 1.0]);
+    assert_eq!(s.t.len(), 3);
+    assert!((s.t[2] - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{}", s.t[2]);
+    assert!(s.x[2][0].abs() < 1e-9);
+}
+
+#[test]
+fn invalid_save_options_are_typed_errors() {
+    let p = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 1.0));
+    for (save, needle) in [
+        (Save::Every(0), "k ≥ 1"),
+        (Save::At(vec![]), "at least one"),
+        (Save::At(vec![0.5, f64::NAN]), "finite"),
+        (Save::At(vec![0.5, 0.25]), "direction"),
+        (Save::At(vec![0.5, 0.5]), "direction"),
+        (Save::At(vec![0.5, 1.5]), "outside"),
+        (Save::At(vec![-0.1]), "outside"),
+    ] {
+        match p.solve(Dopri5::default(), &Options::default().save(save.clone())) {
+            Err(Error::InvalidInput { what, reason }) => {
+                assert_eq!(what, "save");
+                assert!(reason.contains(needle), "{save:?}: {reason}");
+            }
+            other => panic!("{save:?}: {other:?}"),
+        }
+    }
+}

@@ -1,0 +1,39 @@
+//! Peak memory of an RK45 run on the 1-D Brusselator (500 points, 1 000 states, t ∈ [0, 10])
+//! under each `Options::save` mode: run one mode per process and read the peak resident
+//! set (`VmHWM`, Linux). `cargo run --release --example memory -- steps|end|every100|at`.
+
+use reckon::methods::Dopri5;
+use reckon::problems::{brusselator, brusselator_y0};
+use reckon::{Options, Problem, Save};
+
+fn peak_rss_mib() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    s.lines()
+        .find(|l| l.starts_with("VmHWM:"))
+        .and_then(|l| l.split_whitespace().nth(1))
+        .and_then(|kb| kb.parse::<f64>().ok())
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn main() {
+    let mode = std::env::args().nth(1).unwrap_or_else(|| "end".into());
+    let n = 500;
+    let x0 = brusselator_y0(n);
+    let sys = brusselator(n);
+    let p = Problem::new(&sys, x0, (0.0, 10.0));
+    let (save, dense) = match mode.as_str() {
+        "steps" => (Save::Steps, true),
+        "every100" => (Save::Every(100), false),
+        "at" => (Save::At((0..=100).map(|i| 0.1 * i as f64).collect()), false),
+        _ => (Save::End, false),
+    };
+    let o = Options::default().rtol(1e-4).atol(1e-4).dense(dense).save(save);
+    let s = p.solve(Dopri5::default(), &o).unwrap();
+    println!(
+        "{mode}: {} steps, {} kept, {:.1} MiB kept, peak RSS {:.1} MiB",
+        s.stats.accepted,
+        s.t.len(),
+        s.kept_bytes() as f64 / (1 << 20) as f64,
+        peak_rss_mib()
+    );
+}

@@ -33,11 +33,9 @@ impl Tolerance {
         DefaultAllocator: Allocator<D>,
     {
         let n = dim.value();
-        let v = match self {
-            Tolerance::Scalar(a) if a.is_finite() && *a >= 0.0 => {
-                return Ok(OVector::<f64, D>::from_element_generic(dim, nalgebra::U1, *a));
-            }
-            Tolerance::Scalar(a) => OVector::<f64, D>::from_element_generic(dim, nalgebra::U1, *a),
+        // the given values (one for a scalar) are checked, not the n copies of them
+        let given: &[f64] = match self {
+            Tolerance::Scalar(a) => std::slice::from_ref(a),
             Tolerance::PerComponent(v) => {
                 if v.len() != n {
                     return Err(Error::invalid(
@@ -45,15 +43,21 @@ impl Tolerance {
                         format!("{} values given for a state of {} components", v.len(), n),
                     ));
                 }
-                OVector::<f64, D>::from_iterator_generic(dim, nalgebra::U1, v.iter().copied())
+                v
             }
         };
-        if let Some(bad) = v.iter().find(|a| !(a.is_finite() && **a >= 0.0)) {
+        if let Some(bad) = given.iter().find(|a| !(a.is_finite() && **a >= 0.0)) {
             return Err(Error::invalid(
                 what,
                 format!("must be finite and non-negative, got {}", crate::error::Brief(*bad)),
             ));
         }
+        let v = match self {
+            Tolerance::Scalar(a) => OVector::<f64, D>::from_element_generic(dim, nalgebra::U1, *a),
+            Tolerance::PerComponent(v) => {
+                OVector::<f64, D>::from_iterator_generic(dim, nalgebra::U1, v.iter().copied())
+            }
+        };
         Ok(v)
     }
 }

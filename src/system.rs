@@ -620,10 +620,7 @@ where
     #[inline(always)]
     pub fn rhs_unchecked(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
         self.stats.rhs_evals += 1;
-        self.sys.rhs(t, x, &self.u, dx);
-        if dx.len() != x.len() {
-            self.wrong_length(t, x, dx);
-        }
+        self.rhs_uncounted(t, x, dx);
     }
 
     /// `dx ← f(t, x)` like [`rhs_unchecked`](Self::rhs_unchecked), but not counted: a

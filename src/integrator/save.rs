@@ -23,8 +23,8 @@ where
     seen: usize,
     /// The latest step end, kept for the end of the run when it was not stored.
     pending: Option<(f64, OVector<f64, D>)>,
-    pub(super) t: Vec<f64>,
-    pub(super) x: Vec<OVector<f64, D>>,
+    t: Vec<f64>,
+    x: Vec<OVector<f64, D>>,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -95,8 +95,7 @@ where
             Mode::Every(k) => {
                 self.seen += 1;
                 if self.seen.is_multiple_of(k) {
-                    self.t.push(t1);
-                    self.x.push(x1.clone());
+                    self.push(t1, x1);
                     self.pending = None;
                 } else {
                     self.hold(t1, x1);

@@ -23,6 +23,7 @@ pub mod problem;
 pub mod problems;
 pub mod reckoning;
 pub mod solution;
+pub mod sparse;
 pub mod studies;
 pub mod system;
 

@@ -48,6 +48,12 @@ where
     fn time_derivative(&self, _t: f64, _x: &OVector<f64, D>, _u: &[f64], _dfdt: &mut OVector<f64, D>) -> bool {
         false
     }
+    /// An evaluator of `J` into its sparsity pattern, for a state of `n` components, if
+    /// the model can give one (a traced [`model!`](crate::model): the compiled symbolic
+    /// Jacobian). `None` (the default): the implicit methods use the dense [`jacobian`](Self::jacobian).
+    fn sparse_jacobian(&self, _n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
+        None
+    }
 }
 
 impl<D: Dim, T: System<D> + ?Sized> System<D> for &T
@@ -69,6 +75,9 @@ where
     }
     fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
         (**self).time_derivative(t, x, u, dfdt)
+    }
+    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
+        (**self).sparse_jacobian(n)
     }
 }
 

@@ -1,0 +1,133 @@
+//! Sparse Jacobians: the pattern of `J = ∂f/∂x` in compressed sparse column (CSC) form,
+//! and evaluators that fill its non-zeros without ever forming the dense `n × n` matrix.
+//!
+//! A model offers one through [`System::sparse_jacobian`](crate::System::sparse_jacobian):
+//! a traced [`model!`](crate::model) gives the compiled symbolic evaluator
+//! ([`crate::symbolic`]); the implicit methods then factor `I − c·J` with faer's sparse LU.
+
+/// The sparsity pattern of an `n × n` matrix in CSC form: the rows of column `j` are
+/// `row_idx[col_ptr[j]..col_ptr[j + 1]]`, sorted ascending, without repeats. Values of a
+/// matrix with this pattern are stored in the same order (`values[k]` is at
+/// `(row_idx[k], j)`).
+///
+/// ```
+/// use reckon::sparse::Pattern;
+/// // [[a, 0], [b, c]]: column 0 has rows 0, 1; column 1 has row 1
+/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]);
+/// assert_eq!(p.col_ptr(), &[0, 2, 3]);
+/// assert_eq!(p.row_idx(), &[0, 1, 1]);
+/// assert_eq!(p.nnz(), 3);
+/// assert_eq!(p.position(1, 0), Some(1));
+/// assert_eq!(p.position(0, 1), None);
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Pattern {
+    n: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+}
+
+impl Pattern {
+    /// The pattern holding the `(row, column)` entries given (any order, repeats
+    /// merged) of an `n × n` matrix. Panics on an index `≥ n` (a programming error).
+    pub fn from_entries(n: usize, entries: &[(usize, usize)]) -> Self {
+        let mut e: Vec<(usize, usize)> = entries.iter().map(|&(r, c)| (c, r)).collect();
+        assert!(e.iter().all(|&(c, r)| c < n && r < n), "Pattern: index out of range");
+        e.sort_unstable();
+        e.dedup();
+        let mut col_ptr = vec![0; n + 1];
+        for &(c, _) in &e {
+            col_ptr[c + 1] += 1;
+        }
+        for j in 0..n {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        let row_idx = e.into_iter().map(|(_, r)| r).collect();
+        Pattern { n, col_ptr, row_idx }
+    }
+
+    /// Build from CSC arrays; `None` unless they describe a valid `n × n` pattern
+    /// (`col_ptr` of length `n + 1` from 0, non-decreasing, rows in range and strictly
+    /// ascending within each column).
+    pub fn from_csc(n: usize, col_ptr: Vec<usize>, row_idx: Vec<usize>) -> Option<Self> {
+        let ok = col_ptr.len() == n + 1
+            && col_ptr[0] == 0
+            && col_ptr[n] == row_idx.len()
+            && col_ptr.windows(2).all(|w| w[0] <= w[1])
+            && (0..n).all(|j| {
+                let r = &row_idx[col_ptr[j]..col_ptr[j + 1]];
+                r.iter().all(|&i| i < n) && r.windows(2).all(|w| w[0] < w[1])
+            });
+        ok.then_some(Pattern { n, col_ptr, row_idx })
+    }
+
+    /// The dense pattern of an `n × n` matrix.
+    pub fn dense(n: usize) -> Self {
+        Pattern {
+            n,
+            col_ptr: (0..=n).map(|j| j * n).collect(),
+            row_idx: (0..n * n).map(|k| k % n).collect(),
+        }
+    }
+
+    /// Matrix size `n`.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+    /// Number of structural non-zeros.
+    pub fn nnz(&self) -> usize {
+        self.row_idx.len()
+    }
+    /// `nnz / n²` (0 for `n = 0`).
+    pub fn density(&self) -> f64 {
+        if self.n == 0 {
+            0.0
+        } else {
+            self.nnz() as f64 / (self.n as f64 * self.n as f64)
+        }
+    }
+    /// Column pointers (length `n + 1`).
+    pub fn col_ptr(&self) -> &[usize] {
+        &self.col_ptr
+    }
+    /// Row indices, column by column.
+    pub fn row_idx(&self) -> &[usize] {
+        &self.row_idx
+    }
+    /// Index into the value array of entry `(row, col)`, if it is in the pattern.
+    pub fn position(&self, row: usize, col: usize) -> Option<usize> {
+        let (a, b) = (self.col_ptr[col], self.col_ptr[col + 1]);
+        self.row_idx[a..b].binary_search(&row).ok().map(|k| a + k)
+    }
+    /// Whether every diagonal entry is in the pattern.
+    pub fn has_diagonal(&self) -> bool {
+        (0..self.n).all(|j| self.position(j, j).is_some())
+    }
+    /// The pattern with every diagonal entry added (the pattern of `I − c·J`).
+    pub fn with_diagonal(&self) -> Self {
+        if self.has_diagonal() {
+            return self.clone();
+        }
+        let mut e: Vec<(usize, usize)> = self.entries().collect();
+        e.extend((0..self.n).map(|j| (j, j)));
+        Pattern::from_entries(self.n, &e)
+    }
+    /// Every `(row, col)` entry, column by column.
+    pub fn entries(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (0..self.n).flat_map(move |j| {
+            self.row_idx[self.col_ptr[j]..self.col_ptr[j + 1]]
+                .iter()
+                .map(move |&i| (i, j))
+        })
+    }
+}
+
+/// An evaluator of `J = ∂f/∂x` into the non-zeros of a fixed [`Pattern`], owning its
+/// scratch space so that [`eval`](Self::eval) allocates nothing.
+pub trait SparseJacobian {
+    /// The pattern the values are written in.
+    fn pattern(&self) -> &Pattern;
+    /// `values ← J(t, x, u)` in the order of [`pattern`](Self::pattern)`.row_idx()`
+    /// (`values.len() == nnz`). `x` is the state as a slice.
+    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]);
+}

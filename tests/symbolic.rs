@@ -322,3 +322,27 @@ fn hash_consing_shares_the_values_subexpressions_with_the_derivatives() {
     let d = tr.jacobian_entry(0, 1).unwrap();
     assert_eq!(d.to_string(), "sin(x₀)");
 }
+
+#[test]
+fn body3d_angle_derivatives_match_the_product_rule_by_hand() {
+    // ∂(R v)/∂ψ with R = Rz(ψ)·Ry(θ)·Rx(φ): Rz differentiated
+    let tr = symbolic::trace(&body3d::model(), 3).unwrap();
+    let u = [0.3, -0.4, 1.1, 2.0, -0.5, 0.7];
+    let (sf, cf) = u[0].sin_cos();
+    let (st, ct) = u[1].sin_cos();
+    let (sp, cp) = u[2].sin_cos();
+    let rx = nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, cf, -sf, 0.0, sf, cf);
+    let ry = nalgebra::Matrix3::new(ct, 0.0, st, 0.0, 1.0, 0.0, -st, 0.0, ct);
+    let drz = nalgebra::Matrix3::new(-sp, -cp, 0.0, cp, -sp, 0.0, 0.0, 0.0, 0.0);
+    let want = drz * ry * rx * vector![u[3], u[4], u[5]];
+    let got: Vec<(usize, f64)> = tr
+        .input_jacobian()
+        .filter(|&(_, k, _)| k == 2)
+        .map(|(i, _, e)| (i, e.eval(0.0, &[0.0; 3], &u)))
+        .collect();
+    assert_eq!(got.len(), 2, "ż does not depend on ψ");
+    for (i, v) in got {
+        assert!((v - want[i]).abs() < 1e-15, "row {i}: {v} against {}", want[i]);
+        assert!(v.abs() > 0.1);
+    }
+}

@@ -47,7 +47,11 @@ fn rows(tr: &Traced, n: usize, m: usize, hand: &[(usize, usize, Hand)]) -> Vec<V
                         let (a, b) = (e.eval(0.0, x, u), f(x, u));
                         (a - b).abs() / b.abs().max(1e-300)
                     })
-                    .fold(0.0f64, f64::max);
+                    // a NaN anywhere is shown, not dropped by `max`
+                    .fold(
+                        0.0f64,
+                        |m, d| if d.is_nan() || m.is_nan() { f64::NAN } else { m.max(d) },
+                    );
                 out.push(vec![
                     label(i, j),
                     math(e.mathml()),
@@ -69,6 +73,27 @@ fn rows(tr: &Traced, n: usize, m: usize, hand: &[(usize, usize, Hand)]) -> Vec<V
         }
     }
     out
+}
+
+/// `∂(R v)/∂φ`, `∂/∂θ` or `∂/∂ψ` (`which` = 0, 1, 2) with `u = (φ, θ, ψ, v)`, by hand:
+/// `R = Rz(ψ)·Ry(θ)·Rx(φ)` with the one factor replaced by its derivative.
+fn d_rot(u: &[f64], which: usize) -> nalgebra::Vector3<f64> {
+    use nalgebra::Matrix3;
+    let (sf, cf) = u[0].sin_cos();
+    let (st, ct) = u[1].sin_cos();
+    let (sp, cp) = u[2].sin_cos();
+    let rx = Matrix3::new(1.0, 0.0, 0.0, 0.0, cf, -sf, 0.0, sf, cf);
+    let ry = Matrix3::new(ct, 0.0, st, 0.0, 1.0, 0.0, -st, 0.0, ct);
+    let rz = Matrix3::new(cp, -sp, 0.0, sp, cp, 0.0, 0.0, 0.0, 1.0);
+    let drx = Matrix3::new(0.0, 0.0, 0.0, 0.0, -sf, -cf, 0.0, cf, -sf);
+    let dry = Matrix3::new(-st, 0.0, ct, 0.0, 0.0, 0.0, -ct, 0.0, -st);
+    let drz = Matrix3::new(-sp, -cp, 0.0, cp, -sp, 0.0, 0.0, 0.0, 0.0);
+    let v = nalgebra::Vector3::new(u[3], u[4], u[5]);
+    match which {
+        0 => rz * ry * drx * v,
+        1 => rz * dry * rx * v,
+        _ => drz * ry * rx * v,
+    }
 }
 
 pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
@@ -139,6 +164,18 @@ pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
         (2, 7, ("R₃₂ = cθ sφ", |_, u| body3d::rotation(u[0], u[1], u[2])[(2, 1)])),
         (2, 8, ("R₃₃ = cθ cφ", |_, u| body3d::rotation(u[0], u[1], u[2])[(2, 2)])),
     ];
+    // ∂(R v)/∂angle by the product rule on R = Rz(ψ)·Ry(θ)·Rx(φ), one factor differentiated
+    let body_angles: Vec<(usize, usize, Hand)> = vec![
+        (0, 3, ("(Rz Ry Rx′ v)₁", |_, u| d_rot(u, 0)[0])),
+        (1, 3, ("(Rz Ry Rx′ v)₂", |_, u| d_rot(u, 0)[1])),
+        (2, 3, ("(Rz Ry Rx′ v)₃", |_, u| d_rot(u, 0)[2])),
+        (0, 4, ("(Rz Ry′ Rx v)₁", |_, u| d_rot(u, 1)[0])),
+        (1, 4, ("(Rz Ry′ Rx v)₂", |_, u| d_rot(u, 1)[1])),
+        (2, 4, ("(Rz Ry′ Rx v)₃", |_, u| d_rot(u, 1)[2])),
+        (0, 5, ("(Rz′ Ry Rx v)₁", |_, u| d_rot(u, 2)[0])),
+        (1, 5, ("(Rz′ Ry Rx v)₂", |_, u| d_rot(u, 2)[1])),
+    ];
+    let body: Vec<(usize, usize, Hand)> = body.into_iter().chain(body_angles).collect();
     let models: [Entry<'_>; 4] = [
         (
             "Unicycle (x, y, θ; v, ω)",

@@ -524,13 +524,18 @@ macro_rules! model {
     (@tlet plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
     (@tlet auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
     (@tlet typed, $t:tt, $s:ident, $v:expr) => { let $t: $s = <$s>::from($v); };
-    // how the traced copy sees t: NaN (plain, auto: a body that computes with it is
-    // refused) or the time symbol (typed)
-    (@ttrace plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = f64::NAN; };
-    (@ttrace auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = f64::NAN; };
+    // how the traced copy sees t: ±∞ (plain: a body that computes with it records a
+    // non-finite constant, one that branches on it two different graphs; both are refused)
+    // or the time symbol (typed)
+    (@ttrace plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $crate::symbolic::plain_time(); };
+    (@ttrace auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $crate::symbolic::plain_time(); };
     (@ttrace typed, $t:tt, $s:ident, $v:expr) => { let $t: $s = $v; };
+    (@plain plain) => { true };
+    (@plain auto) => { false };
+    (@plain typed) => { false };
     (@trace $mode:ident, $vec:ty, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
-        $crate::symbolic::TraceFn(
+        $crate::symbolic::TraceFn::new(
+            $crate::model!(@plain $mode),
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: $crate::symbolic::Sym, $x: &$vec, $u: &[$crate::symbolic::Sym]| -> $vec {
                 #[allow(unused_imports)]

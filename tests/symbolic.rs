@@ -200,9 +200,17 @@ fn state_dependent_branch_is_the_typed_error_naming_the_model() {
     saturating().jacobian(0.0, &vector![0.5], &[], &mut j);
     assert_eq!(j[(0, 0)], 1.0);
     assert!(saturating().sparse_jacobian(1).is_none());
-    // a plain-f64 time the body computes with is refused too
+    // a plain-f64 time the body computes with, or branches on, is refused too
     let plain = model!(|t, x: [S; 1]| vector![x[0] * t]);
     assert!(matches!(symbolic::trace(&plain, 1), Err(Error::Untraceable { .. })));
+    let switched = model!(|t, x: [S; 1]| vector![if t > 1.0 { x[0].clone() * 2.0 } else { x[0].clone() }]);
+    match symbolic::trace(&switched, 1) {
+        Err(Error::Untraceable { reason, .. }) => assert!(reason.contains("branches on its time"), "{reason}"),
+        other => panic!("expected Untraceable, got {other:?}"),
+    }
+    // a plain time the body never reads is no obstacle
+    let unused = model!(|_t, x: [S; 1]| vector![-x[0].clone()]);
+    assert_eq!(symbolic::trace(&unused, 1).unwrap().jacobian_text(), "∂ẋ₀/∂x₀ = −1\n");
     // a hand-written System has nothing to trace
     struct Hand;
     impl System<nalgebra::Const<1>> for Hand {

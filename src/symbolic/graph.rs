@@ -236,6 +236,11 @@ impl Graph {
         self.nodes.len()
     }
 
+    /// Whether `other` holds the same nodes under the same ids (the same recording).
+    pub fn same_as(&self, other: &Graph) -> bool {
+        self.nodes == other.nodes
+    }
+
     /// The node with id `id`.
     pub fn node(&self, id: u32) -> Node {
         self.nodes[id as usize]

@@ -27,8 +27,10 @@
 //! A body whose control flow depends on the state (a comparison of traced values, a
 //! sign test, reading a traced number) cannot be traced faithfully: [`trace`] returns
 //! [`Error::Untraceable`] naming the model, and the model keeps working with its num-dual
-//! Jacobian. A time written as a plain `t` (an `f64` in the body) is traced as NaN: a
-//! body that uses it is refused the same way (write `t: S` to trace the time).
+//! Jacobian. A time written as a plain `t` (an `f64` in the body) is invisible to the trace:
+//! the body is recorded with `t = +∞` and again with `t = −∞`, and a body that computes
+//! with `t` (a non-finite constant appears) or branches on it (the two graphs differ) is
+//! refused the same way. Write `t: S` to trace the time.
 
 mod compile;
 mod diff;
@@ -38,7 +40,7 @@ mod sym;
 
 pub use compile::CompiledJacobian;
 pub use graph::Func;
-pub use sym::Sym;
+pub use sym::{Sym, plain_time};
 
 use crate::error::{Error, Result};
 use crate::sparse::Pattern;
@@ -89,6 +91,11 @@ where
 {
     /// Whether there is a body to run.
     fn traceable(&self) -> bool;
+    /// Whether the body sees the time as a plain `f64` (`|t, x: …|`): it is then recorded
+    /// twice, with `t = +∞` and `t = −∞`, and refused unless both graphs are the same.
+    fn plain_time(&self) -> bool {
+        false
+    }
     /// `f(t, x, u)` on traced values (`None` without a body).
     fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym]) -> Option<OVector<Sym, D>>;
 }
@@ -109,9 +116,22 @@ where
     }
 }
 
-/// The body instantiated at [`Sym`] (what `model!` generates).
+/// The body instantiated at [`Sym`] (what `model!` generates); `plain_time` when the body's
+/// time is a plain `f64` (see [`TraceBody::plain_time`]).
 #[derive(Clone)]
-pub struct TraceFn<H>(pub H);
+pub struct TraceFn<H> {
+    /// The traced copy of the body.
+    pub body: H,
+    /// The body's time is a plain `f64` it may compute or branch with.
+    pub plain_time: bool,
+}
+
+impl<H> TraceFn<H> {
+    /// The traced copy `body`; `plain_time` when its time is a plain `f64`.
+    pub fn new(plain_time: bool, body: H) -> Self {
+        TraceFn { body, plain_time }
+    }
+}
 
 impl<D: Dim, H> TraceBody<D> for TraceFn<H>
 where
@@ -121,8 +141,11 @@ where
     fn traceable(&self) -> bool {
         true
     }
+    fn plain_time(&self) -> bool {
+        self.plain_time
+    }
     fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym]) -> Option<OVector<Sym, D>> {
-        Some((self.0)(t, x, u))
+        Some((self.body)(t, x, u))
     }
 }
 
@@ -139,11 +162,30 @@ where
         model: model.to_string(),
         reason,
     };
-    let recorded = sym::record(&leaves, |syms| {
-        let x = OVector::<Sym, D>::from_iterator_generic(D::from_usize(n), U1, syms[..n].iter().copied());
-        body.run(syms[n + m], &x, &syms[n..n + m])
-            .map(|f| f.iter().map(|s| s.id()).collect::<Vec<u32>>())
-    });
+    let record = |t: f64| {
+        sym::set_plain_time(t);
+        sym::record(&leaves, |syms| {
+            let x = OVector::<Sym, D>::from_iterator_generic(D::from_usize(n), U1, syms[..n].iter().copied());
+            body.run(syms[n + m], &x, &syms[n..n + m])
+                .map(|f| f.iter().map(|s| s.id()).collect::<Vec<u32>>())
+        })
+    };
+    let recorded = record(f64::INFINITY);
+    if body.plain_time()
+        && let Ok((g, f)) = &recorded
+    {
+        // a body that branches on its plain time records another graph at t = −∞
+        match record(f64::NEG_INFINITY) {
+            Ok((g2, f2)) if g2.same_as(g) && f2 == *f => {}
+            Ok(_) => {
+                return Err(untraceable(
+                    "its body branches on its time `t`, a plain f64 the trace cannot follow: write                      `|t: S, x: …|` and express the time dependence without a comparison                      (its Jacobian still comes from num-dual)"
+                        .into(),
+                ));
+            }
+            Err(e) => return Err(untraceable(format!("{e:?}"))),
+        }
+    }
     let (g, f) = match recorded {
         Ok((g, Some(f))) => (g, f),
         Ok((_, None)) => {
@@ -164,7 +206,8 @@ where
                         .into()
                 }
                 sym::Fault::PlainValue => "its body computes with a plain f64 the trace cannot see (a time \
-                     written `t` instead of `t: S`): write `|t: S, x: …|` to trace it"
+                     written `t` instead of `t: S`) or with a non-finite number: write `|t: S, x: …|` \
+                     to trace the time (its Jacobian still comes from num-dual)"
                     .into(),
             }));
         }

@@ -29,8 +29,8 @@ pub(crate) enum Fault {
     Compare(&'static str),
     /// It read a traced value's number (`re()`).
     Value,
-    /// A NaN entered the graph as a constant: the body computed with an `f64` the trace
-    /// gives as NaN (a time `t` written without `: S`).
+    /// A NaN or ±∞ entered the graph as a constant: the body computed with an `f64` the
+    /// trace gives as ±∞ (a time `t` written without `: S`), or with a non-finite number.
     PlainValue,
 }
 
@@ -43,6 +43,20 @@ struct Tape {
 
 thread_local! {
     static TAPE: RefCell<Tape> = RefCell::new(Tape::default());
+    static PLAIN_TIME: std::cell::Cell<f64> = const { std::cell::Cell::new(f64::NAN) };
+}
+
+/// The value a traced body sees for a time written as a plain `t` (an `f64`): `+∞` in one
+/// recording and `−∞` in the other, so that a body computing with it records a non-finite
+/// constant and one branching on it records two different graphs; both are refused.
+#[doc(hidden)]
+pub fn plain_time() -> f64 {
+    PLAIN_TIME.with(|c| c.get())
+}
+
+/// Set [`plain_time`] for the next recording.
+pub(crate) fn set_plain_time(v: f64) {
+    PLAIN_TIME.with(|c| c.set(v));
 }
 
 fn with<R>(f: impl FnOnce(&mut Graph) -> R) -> R {
@@ -116,7 +130,8 @@ impl Sym {
     }
 
     fn lift(v: f64) -> Sym {
-        if v.is_nan() {
+        // the trace gives a plain-f64 time as ±∞: a constant computed from it is not finite
+        if !v.is_finite() {
             fault(Fault::PlainValue);
         }
         Sym(with(|g| g.num(v)))

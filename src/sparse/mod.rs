@@ -3,7 +3,29 @@
 //!
 //! A model offers one through [`System::sparse_jacobian`](crate::System::sparse_jacobian):
 //! a traced [`model!`](crate::model) gives the compiled symbolic evaluator
-//! ([`crate::symbolic`]); the implicit methods then factor `I − c·J` with faer's sparse LU.
+//! ([`crate::symbolic`]); the implicit methods then factor `I − c·J` with faer's sparse LU
+//! ([`SparseLu`]) when [`Options::linear_solver`](crate::Options::linear_solver) chooses
+//! it. A model that cannot be traced can still give one by column colouring
+//! ([`colour::Coloured`] over its dual-number body).
+
+pub mod colour;
+mod eval;
+mod lu;
+
+pub(crate) use eval::Slot;
+pub use lu::SparseLu;
+
+/// [`LinearSolver::Auto`](crate::options::LinearSolver::Auto) takes the sparse path from
+/// this many states on (64) when the model offers a sparse Jacobian. On BRUSS 1-D
+/// (5 non-zeros per column) the sparse path is already faster at 32 states and the dense
+/// one no faster at any size measured (`examples/sparse_scaling.rs crossover`); 64 keeps
+/// small fixed-size models, whose dense LU lives on the stack, on the dense path.
+pub const AUTO_MIN_STATES: usize = 64;
+
+/// [`LinearSolver::Auto`](crate::options::LinearSolver::Auto) takes the sparse path only
+/// when `nnz/n²` of `J` is at most this (0.1): denser patterns fill in under LU until the
+/// sparse factor costs more than faer's dense one (`examples/sparse_scaling.rs crossover`).
+pub const AUTO_MAX_DENSITY: f64 = 0.1;
 
 /// The sparsity pattern of an `n × n` matrix in CSC form: the rows of column `j` are
 /// `row_idx[col_ptr[j]..col_ptr[j + 1]]`, sorted ascending, without repeats. Values of a

@@ -19,7 +19,7 @@ use num_dual::DualDVec64;
 /// ```
 /// use reckon::sparse::{Pattern, colour::Colouring};
 /// // tridiagonal 5 × 5: three colours (columns j, j + 3, … share no row)
-/// let e: Vec<_> = (0..5).flat_map(|i| [(i, i.saturating_sub(1)), (i, i), (i, (i + 1).min(4))]).collect();
+/// let e: Vec<_> = (0..5usize).flat_map(|i| [(i, i.saturating_sub(1)), (i, i), (i, (i + 1).min(4))]).collect();
 /// let c = Colouring::greedy(&Pattern::from_entries(5, &e));
 /// assert_eq!(c.count(), 3);
 /// assert_eq!(c.colours(), &[0, 1, 2, 0, 1]);

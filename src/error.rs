@@ -87,6 +87,17 @@ pub enum Error {
         /// Steps taken (accepted and rejected).
         steps: usize,
     },
+    /// A model could not be traced into expressions ([`crate::symbolic`]): its body asks
+    /// a traced value something only a number can answer (its control flow depends on
+    /// the state), or it is not a [`model!`](crate::model) at all. Its Jacobian still
+    /// comes from num-dual; only the symbolic forms are unavailable.
+    #[error("model `{model}` cannot be traced: {reason}")]
+    Untraceable {
+        /// The model (the function that defined it, or the name it was given).
+        model: String,
+        /// What the body did that a trace cannot follow.
+        reason: String,
+    },
     /// An option, a span, a dimension or another input was invalid.
     #[error("invalid {what}: {reason}")]
     InvalidInput {

@@ -142,6 +142,20 @@ where
     }
 }
 
+/// The tracing scalar: `l ∘ r` records the literal as a constant node, in the order written.
+macro_rules! lhs_sym {
+    ($($tr:ident $f:ident),*) => {$(
+        impl $tr<crate::symbolic::Sym> for Lhs {
+            type Output = crate::symbolic::Sym;
+            #[inline]
+            fn $f(self, r: crate::symbolic::Sym) -> crate::symbolic::Sym {
+                crate::symbolic::Sym::from(self.0).$f(r)
+            }
+        }
+    )*};
+}
+lhs_sym!(Mul mul, Add add, Sub sub, Div div);
+
 /// `l ∘ &r` as `l ∘ r.clone()`, as for `f64 ∘ &f64`.
 macro_rules! by_ref {
     ($op:ident $f:ident, [$($g:tt)*] $ty:ty, [$($w:tt)*]) => {
@@ -165,6 +179,7 @@ macro_rules! by_ref {
 }
 by_ref!([] f64, []);
 by_ref!([] Dual64, []);
+by_ref!([] crate::symbolic::Sym, []);
 by_ref!([D: Dim] DualVec64<D>, [DefaultAllocator: Allocator<D>]);
 
 /// Scalar times matrix, as nalgebra's `f64 * m`: every entry `e * l`.

@@ -25,6 +25,7 @@ pub mod reckoning;
 pub mod solution;
 pub mod sparse;
 pub mod studies;
+pub mod symbolic;
 pub mod system;
 
 pub use controls::Controls;

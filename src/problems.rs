@@ -26,7 +26,7 @@ pub fn sin_u_exact(t: f64, u0: f64) -> Vector1<f64> {
 
 /// The stiff scalar problem `x' = −1000(x − cos t) − sin t`; `x = cos t` when `x(0) = 1`.
 pub fn stiff_cosine() -> impl crate::DualSystem<Const<1>> + Clone {
-    crate::model!(|t, x: [S; 1]| vector![(x[0] - t.cos()) * -1000.0 - t.sin()])
+    crate::model!(|t: S, x: [S; 1]| vector![(x[0] - t.cos()) * -1000.0 - t.sin()])
 }
 
 /// Arenstorf orbit parameter μ.

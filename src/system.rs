@@ -54,6 +54,13 @@ where
     fn sparse_jacobian(&self, _n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
         None
     }
+    /// The model traced into expressions ([`crate::symbolic::trace`]) for a state of `n`
+    /// components: `None` for a model with no traced copy of its body (the default, and
+    /// any hand-written `System`), `Some(Err(`[`Error::Untraceable`]`))` for a body whose
+    /// control flow depends on the state.
+    fn symbolic(&self, _n: usize) -> Option<Result<crate::symbolic::Traced>> {
+        None
+    }
 }
 
 impl<D: Dim, T: System<D> + ?Sized> System<D> for &T
@@ -79,6 +86,9 @@ where
     fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
         (**self).sparse_jacobian(n)
     }
+    fn symbolic(&self, n: usize) -> Option<Result<crate::symbolic::Traced>> {
+        (**self).symbolic(n)
+    }
 }
 
 /// A model given as one closure body instantiated twice: at `f64` (`F`) and at
@@ -87,11 +97,12 @@ where
 /// `f(t, x, u)` runs at hand-written `f64` cost; `J = ∂f/∂x` is exact to rounding
 /// because `G` propagates derivatives alongside values.
 #[derive(Clone)]
-pub struct ClosureModel<D, F, G, T = NoTimeDerivative> {
+pub struct ClosureModel<D, F, G, T = NoTimeDerivative, Tr = crate::symbolic::NoTrace> {
     inputs: usize,
     f: F,
     g: G,
     dt: T,
+    tr: Tr,
     _dim: PhantomData<D>,
 }
 
@@ -104,23 +115,45 @@ impl<D, F, G> ClosureModel<D, F, G> {
             f,
             g,
             dt: NoTimeDerivative,
+            tr: crate::symbolic::NoTrace,
             _dim: PhantomData,
         }
     }
 }
 
-impl<D, F, G, T> ClosureModel<D, F, G, T> {
+impl<D, F, G, T, Tr> ClosureModel<D, F, G, T, Tr> {
     /// The same model with `∂f/∂t` given by `dt` ([`Autonomous`] or [`TimeDual`]).
     /// [`model!`](crate::model) does this for `|_, x: …|` and `|t: S, x: …|`.
-    pub fn with_time_derivative<T2>(self, dt: T2) -> ClosureModel<D, F, G, T2> {
+    pub fn with_time_derivative<T2>(self, dt: T2) -> ClosureModel<D, F, G, T2, Tr> {
         ClosureModel {
             inputs: self.inputs,
             f: self.f,
             g: self.g,
             dt,
+            tr: self.tr,
             _dim: PhantomData,
         }
     }
+
+    /// The same model with a copy of its body on the tracing scalar
+    /// ([`crate::symbolic::TraceFn`]), which gives its symbolic forms and its compiled
+    /// sparse Jacobian. [`model!`](crate::model) does this for every body.
+    pub fn with_trace<Tr2>(self, tr: Tr2) -> ClosureModel<D, F, G, T, Tr2> {
+        ClosureModel {
+            inputs: self.inputs,
+            f: self.f,
+            g: self.g,
+            dt: self.dt,
+            tr,
+            _dim: PhantomData,
+        }
+    }
+}
+
+/// The model's name for messages: the path of the function whose body defined it.
+fn model_name<F>() -> String {
+    let name = std::any::type_name::<F>();
+    name.strip_suffix("::{{closure}}").unwrap_or(name).to_string()
 }
 
 /// How a [`ClosureModel`] provides `∂f/∂t`.
@@ -183,11 +216,12 @@ where
     }
 }
 
-impl<D: Dim, F, G, T> System<D> for ClosureModel<D, F, G, T>
+impl<D: Dim, F, G, T, Tr> System<D> for ClosureModel<D, F, G, T, Tr>
 where
     F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
     T: TimeDerivative<D>,
+    Tr: crate::symbolic::TraceBody<D>,
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
 {
     fn inputs(&self) -> usize {
@@ -220,6 +254,18 @@ where
     fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
         self.dt.time_derivative(t, x, u, dfdt)
     }
+    fn symbolic(&self, n: usize) -> Option<Result<crate::symbolic::Traced>> {
+        self.tr
+            .traceable()
+            .then(|| crate::symbolic::trace_body(&self.tr, &model_name::<F>(), n, self.inputs))
+    }
+    /// The compiled symbolic Jacobian when the body can be traced.
+    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
+        match self.symbolic(n)? {
+            Ok(tr) => Some(Box::new(tr.compile_jacobian())),
+            Err(_) => None,
+        }
+    }
 }
 
 /// A model that can also be evaluated on num-dual numbers, so that maps built from it
@@ -232,11 +278,12 @@ where
     fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D>;
 }
 
-impl<D: Dim, F, G, T> DualSystem<D> for ClosureModel<D, F, G, T>
+impl<D: Dim, F, G, T, Tr> DualSystem<D> for ClosureModel<D, F, G, T, Tr>
 where
     F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
     T: TimeDerivative<D>,
+    Tr: crate::symbolic::TraceBody<D>,
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
 {
     fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D> {
@@ -477,6 +524,26 @@ macro_rules! model {
     (@tlet plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
     (@tlet auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
     (@tlet typed, $t:tt, $s:ident, $v:expr) => { let $t: $s = <$s>::from($v); };
+    // how the traced copy sees t: NaN (plain, auto: a body that computes with it is
+    // refused) or the time symbol (typed)
+    (@ttrace plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = f64::NAN; };
+    (@ttrace auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = f64::NAN; };
+    (@ttrace typed, $t:tt, $s:ident, $v:expr) => { let $t: $s = $v; };
+    (@trace $mode:ident, $vec:ty, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
+        $crate::symbolic::TraceFn(
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            move |__t: $crate::symbolic::Sym, $x: &$vec, $u: &[$crate::symbolic::Sym]| -> $vec {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
+                #[allow(dead_code)]
+                type $s = $crate::symbolic::Sym;
+                $crate::model!(@ttrace $mode, $t, $s, __t);
+                $crate::__private::lift_literals!($crate, $body)
+            },
+        )
+    };
     (@time plain, $model:expr, $($rest:tt)*) => { $model };
     (@time auto, $model:expr, $($rest:tt)*) => { $model.with_time_derivative($crate::system::Autonomous) };
     (@time typed, $model:expr, fixed, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
@@ -551,7 +618,8 @@ macro_rules! model {
                 $crate::model!(@tlet $mode, $t, $s, __t);
                 $crate::__private::lift_literals!($crate, $body)
             },
-        ), fixed, $n, $t, $x, $s, $u, $body)
+        ).with_trace($crate::model!(@trace $mode, $crate::nalgebra::SVector<$crate::symbolic::Sym, { $n }>, $t, $x, $s, $u, $body)),
+        fixed, $n, $t, $x, $s, $u, $body)
     };
     (@dyn $mode:ident, $m:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
         $crate::model!(@time $mode, $crate::ClosureModel::<$crate::nalgebra::Dyn, _, _>::new(
@@ -581,7 +649,8 @@ macro_rules! model {
                 $crate::model!(@tlet $mode, $t, $s, __t);
                 $crate::__private::lift_literals!($crate, $body)
             },
-        ), dyn, $t, $x, $s, $u, $body)
+        ).with_trace($crate::model!(@trace $mode, $crate::nalgebra::DVector<$crate::symbolic::Sym>, $t, $x, $s, $u, $body)),
+        dyn, $t, $x, $s, $u, $body)
     };
     ($($other:tt)*) => {
         ::core::compile_error!(

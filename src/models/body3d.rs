@@ -14,7 +14,10 @@ use nalgebra::{Const, Matrix3, Vector3};
 /// assert!((r * vector![1.0, 0.0, 0.0] - vector![0.0, 1.0, 0.0]).norm() < 1e-15);
 /// assert!((r.determinant() - 1.0).abs() < 1e-15);
 /// ```
-pub fn rotation(roll: f64, pitch: f64, yaw: f64) -> Matrix3<f64> {
+///
+/// Generic in the scalar so that the same function serves `f64` and the traced copy
+/// of [`model`] (whose inputs are symbols).
+pub fn rotation<S: num_dual::DualNum<Primitive = f64> + Copy>(roll: S, pitch: S, yaw: S) -> Matrix3<S> {
     let (sf, cf) = roll.sin_cos();
     let (st, ct) = pitch.sin_cos();
     let (sp, cp) = yaw.sin_cos();

@@ -1,0 +1,33 @@
+//! Print the traced forms of the crate's vehicle models and test problems.
+use reckon::{models, problems, symbolic};
+
+fn main() {
+    let show = |name: &str, tr: reckon::Result<symbolic::Traced>| match tr {
+        Ok(tr) => println!("== {name} ({} nodes)\n{}", tr.nodes(), tr.text()),
+        Err(e) => println!("== {name}: {e}"),
+    };
+    show(
+        "unicycle",
+        symbolic::trace(&models::unicycle::model(), 3).map(|t| t.with_names(&["x", "y", "θ"], &["v", "ω"])),
+    );
+    show(
+        "bicycle",
+        symbolic::trace(&models::bicycle::model(0.5), 3).map(|t| t.with_names(&["x", "y", "θ"], &["v", "α"])),
+    );
+    show(
+        "carlike",
+        symbolic::trace(&models::carlike::model(2.5), 4).map(|t| t.with_names(&["x", "y", "θ", "γ"], &["v", "ω"])),
+    );
+    show("body3d", symbolic::trace(&models::body3d::model(), 3));
+    show("robertson", symbolic::trace(&problems::robertson(), 3));
+    show("vdp", symbolic::trace(&problems::van_der_pol(1000.0), 2));
+    show("bruss 3", symbolic::trace(&problems::brusselator(3), 6));
+    let tr = symbolic::trace(&models::unicycle::model(), 3)
+        .unwrap()
+        .with_names(&["x", "y", "θ"], &["v", "ω"]);
+    println!("{}\n{}\n{}", tr.latex(), tr.mathml(), tr.rust());
+    show("stiff cosine", symbolic::trace(&problems::stiff_cosine(), 1));
+    if let Some(path) = std::env::args().nth(1) {
+        std::fs::write(path, symbolic::trace(&models::unicycle::model(), 3).unwrap().rust()).unwrap();
+    }
+}

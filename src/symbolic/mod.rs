@@ -1,0 +1,566 @@
+//! Symbolic right-hand sides and Jacobians, traced from the same [`model!`](crate::model)
+//! body that computes values and dual numbers.
+//!
+//! `model!` compiles its body once more with the state's scalar `S` = [`Sym`], a tracing
+//! number whose arithmetic records an expression graph instead of computing: every
+//! distinct subexpression is one node (hash-consing, so common subexpressions are
+//! shared), constants are folded and `0·a`, `1·a`, `a + 0`, `a − a`, `a/1`, `−(−a)` are
+//! simplified as the graph is built. [`trace`] runs it on symbolic states `xᵢ`, inputs
+//! `uₖ` and time `t`, and differentiates the outputs symbolically (sparse forward
+//! accumulation, [`diff`]), which gives
+//!
+//! - `f`, `∂f/∂x`, `∂f/∂u` and `∂f/∂t` as expressions ([`Traced::rhs`],
+//!   [`Traced::jacobian`], [`Traced::input_jacobian`], [`Traced::time_derivative`]);
+//! - printing as text, LaTeX, MathML and Rust source ([`Traced::text`], [`Traced::latex`],
+//!   [`Traced::mathml`], [`Traced::rust`], [`Traced::json`]);
+//! - the sparsity pattern of `∂f/∂x` ([`Traced::pattern`]);
+//! - a compiled evaluator of `∂f/∂x` into a dense or a sparse (CSC) matrix
+//!   ([`Traced::compile_jacobian`]), which the implicit methods use for large models.
+//!
+//! ```
+//! use reckon::{models::unicycle, symbolic};
+//! let j = symbolic::trace(&unicycle::model(), 3).unwrap().with_names(&["x", "y", "θ"], &["v", "ω"]);
+//! assert_eq!(j.jacobian_text(), "∂ẋ/∂θ = −v·sin(θ)\n∂ẏ/∂θ = v·cos(θ)\n");
+//! assert_eq!(j.pattern().nnz(), 2);
+//! ```
+//!
+//! A body whose control flow depends on the state (a comparison of traced values, a
+//! sign test, reading a traced number) cannot be traced faithfully: [`trace`] returns
+//! [`Error::Untraceable`] naming the model, and the model keeps working with its num-dual
+//! Jacobian. A time written as a plain `t` (an `f64` in the body) is traced as NaN: a
+//! body that uses it is refused the same way (write `t: S` to trace the time).
+
+mod compile;
+mod diff;
+mod graph;
+mod print;
+mod sym;
+
+pub use compile::CompiledJacobian;
+pub use graph::Func;
+pub use sym::Sym;
+
+use crate::error::{Error, Result};
+use crate::sparse::Pattern;
+use graph::{Graph, Node};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector, U1};
+use std::fmt;
+
+/// Names the printed forms use for the states, inputs and time. Defaults: `x₀, x₁, …`,
+/// `u₀, u₁, …` and `t`. A name may carry a subscript as `v_l` or `x₁` (LaTeX `v_{l}`).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Names {
+    /// State names (missing ones print as `xᵢ`).
+    pub states: Vec<String>,
+    /// Input names (missing ones print as `uₖ`).
+    pub inputs: Vec<String>,
+    /// The time's name (`t` when empty).
+    pub time: String,
+}
+
+impl Names {
+    pub(crate) fn state(&self, i: usize) -> String {
+        self.states
+            .get(i)
+            .cloned()
+            .unwrap_or_else(|| format!("x{}", print::subscript(i)))
+    }
+    pub(crate) fn input(&self, k: usize) -> String {
+        self.inputs
+            .get(k)
+            .cloned()
+            .unwrap_or_else(|| format!("u{}", print::subscript(k)))
+    }
+    pub(crate) fn time(&self) -> String {
+        if self.time.is_empty() {
+            "t".into()
+        } else {
+            self.time.clone()
+        }
+    }
+}
+
+/// How a [`ClosureModel`](crate::ClosureModel) runs its body on [`Sym`]: [`NoTrace`] for
+/// a model built without one, [`TraceFn`] for the copy `model!` compiles.
+pub trait TraceBody<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Whether there is a body to run.
+    fn traceable(&self) -> bool;
+    /// `f(t, x, u)` on traced values (`None` without a body).
+    fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym]) -> Option<OVector<Sym, D>>;
+}
+
+/// No traced copy of the body (a [`ClosureModel::new`](crate::ClosureModel::new) built by hand).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct NoTrace;
+
+impl<D: Dim> TraceBody<D> for NoTrace
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn traceable(&self) -> bool {
+        false
+    }
+    fn run(&self, _t: Sym, _x: &OVector<Sym, D>, _u: &[Sym]) -> Option<OVector<Sym, D>> {
+        None
+    }
+}
+
+/// The body instantiated at [`Sym`] (what `model!` generates).
+#[derive(Clone)]
+pub struct TraceFn<H>(pub H);
+
+impl<D: Dim, H> TraceBody<D> for TraceFn<H>
+where
+    H: Fn(Sym, &OVector<Sym, D>, &[Sym]) -> OVector<Sym, D>,
+    DefaultAllocator: Allocator<D>,
+{
+    fn traceable(&self) -> bool {
+        true
+    }
+    fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym]) -> Option<OVector<Sym, D>> {
+        Some((self.0)(t, x, u))
+    }
+}
+
+/// Trace `body` (a model's [`TraceBody`]) for a state of `n` and `m` inputs.
+pub(crate) fn trace_body<D: Dim, B: TraceBody<D>>(body: &B, model: &str, n: usize, m: usize) -> Result<Traced>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let n = D::try_to_usize().unwrap_or(n);
+    let mut leaves: Vec<Node> = (0..n as u32).map(Node::State).collect();
+    leaves.extend((0..m as u32).map(Node::Input));
+    leaves.push(Node::Time);
+    let untraceable = |reason: String| Error::Untraceable {
+        model: model.to_string(),
+        reason,
+    };
+    let recorded = sym::record(&leaves, |syms| {
+        let x = OVector::<Sym, D>::from_iterator_generic(D::from_usize(n), U1, syms[..n].iter().copied());
+        body.run(syms[n + m], &x, &syms[n..n + m])
+            .map(|f| f.iter().map(|s| s.id()).collect::<Vec<u32>>())
+    });
+    let (g, f) = match recorded {
+        Ok((g, Some(f))) => (g, f),
+        Ok((_, None)) => {
+            return Err(untraceable(
+                "it has no traced copy of its body (build it with model!)".into(),
+            ));
+        }
+        Err(None) => return Err(untraceable("a trace is already running on this thread".into())),
+        Err(Some(fault)) => {
+            return Err(untraceable(match fault {
+                sym::Fault::Compare(op) => format!(
+                    "its body applies {op} to a traced value, so its control flow depends on the state \
+                     (its Jacobian still comes from num-dual)"
+                ),
+                sym::Fault::Value => {
+                    "its body reads the number of a traced value (re()), so it computes with the state \
+                     outside the expression (its Jacobian still comes from num-dual)"
+                        .into()
+                }
+                sym::Fault::PlainValue => "its body computes with a plain f64 the trace cannot see (a time \
+                     written `t` instead of `t: S`): write `|t: S, x: …|` to trace it"
+                    .into(),
+            }));
+        }
+    };
+    if f.len() != n {
+        return Err(Error::invalid(
+            "model",
+            format!("f returned {} components for a state of {n}", f.len()),
+        ));
+    }
+    Ok(Traced::build(g, n, m, f, model))
+}
+
+/// The trace of a model: its right-hand side and derivatives as expressions of one graph.
+///
+/// ```
+/// use reckon::{model, symbolic};
+/// use nalgebra::vector;
+/// // Van der Pol, μ = 1
+/// let f = model!(|_, x: [S; 2]| vector![x[1].clone(), (1.0 - x[0] * x[0]) * x[1] - x[0]]);
+/// let tr = symbolic::trace(&f, 2).unwrap();
+/// assert_eq!(tr.rhs(1).to_string(), "x₁·(1 − x₀·x₀) − x₀");
+/// assert_eq!(tr.jacobian_entry(1, 0).unwrap().to_string(), "−x₁·2·x₀ − 1");
+/// assert_eq!(tr.jacobian_entry(0, 0), None); // a structural zero
+/// ```
+#[derive(Clone)]
+pub struct Traced {
+    g: Graph,
+    n: usize,
+    m: usize,
+    f: Vec<u32>,
+    /// `(row, col, node)` of `∂f/∂x`, column by column.
+    jx: Vec<(usize, usize, u32)>,
+    /// `(row, input, node)` of `∂f/∂u`, row by row.
+    ju: Vec<(usize, usize, u32)>,
+    /// `(row, node)` of `∂f/∂t`.
+    jt: Vec<(usize, u32)>,
+    model: String,
+    names: Names,
+}
+
+impl fmt::Debug for Traced {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Traced")
+            .field("model", &self.model)
+            .field("n", &self.n)
+            .field("inputs", &self.m)
+            .field("nodes", &self.g.len())
+            .field("jacobian_nnz", &self.jx.len())
+            .finish()
+    }
+}
+
+/// One expression of a [`Traced`] model; `Display` prints it as text.
+#[derive(Clone, Copy)]
+pub struct Expr<'a> {
+    tr: &'a Traced,
+    id: u32,
+}
+
+impl PartialEq for Expr<'_> {
+    fn eq(&self, other: &Self) -> bool {
+        std::ptr::eq(self.tr, other.tr) && self.id == other.id
+    }
+}
+
+impl fmt::Debug for Expr<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Expr({self})")
+    }
+}
+
+impl fmt::Display for Expr<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&print::text(&self.tr.g, self.id, &self.tr.names))
+    }
+}
+
+impl Expr<'_> {
+    /// The expression in LaTeX (math mode).
+    pub fn latex(&self) -> String {
+        print::latex(&self.tr.g, self.id, &self.tr.names)
+    }
+    /// The expression in presentation MathML (without the `<math>` element).
+    pub fn mathml(&self) -> String {
+        print::mathml(&self.tr.g, self.id, &self.tr.names)
+    }
+    /// Its value at `(t, x, u)` (a slow reference evaluation; see [`Traced::compile_jacobian`]).
+    pub fn eval(&self, t: f64, x: &[f64], u: &[f64]) -> f64 {
+        self.tr.g.eval(self.id, t, x, u)
+    }
+    /// The number, if the expression is a constant.
+    pub fn constant(&self) -> Option<f64> {
+        self.tr.g.constant(self.id)
+    }
+}
+
+/// The name with a dot over its first letter (`x` → `ẋ`, `x₀` → `ẋ₀`).
+fn dotted(name: &str) -> String {
+    // the letters Unicode has precomposed with a dot above (ẋ, ẏ, ż…); others combine U+0307
+    const PRE: [(char, char); 20] = [
+        ('a', 'ȧ'),
+        ('b', 'ḃ'),
+        ('c', 'ċ'),
+        ('d', 'ḋ'),
+        ('e', 'ė'),
+        ('f', 'ḟ'),
+        ('g', 'ġ'),
+        ('h', 'ḣ'),
+        ('m', 'ṁ'),
+        ('n', 'ṅ'),
+        ('o', 'ȯ'),
+        ('p', 'ṗ'),
+        ('r', 'ṙ'),
+        ('s', 'ṡ'),
+        ('t', 'ṫ'),
+        ('w', 'ẇ'),
+        ('x', 'ẋ'),
+        ('y', 'ẏ'),
+        ('z', 'ż'),
+        ('X', 'Ẋ'),
+    ];
+    let mut c = name.chars();
+    match c.next() {
+        Some(first) => match PRE.iter().find(|p| p.0 == first) {
+            Some(&(_, d)) => format!("{d}{}", c.as_str()),
+            None => format!("{first}\u{307}{}", c.as_str()),
+        },
+        None => String::new(),
+    }
+}
+
+impl Traced {
+    fn build(mut g: Graph, n: usize, m: usize, f: Vec<u32>, model: &str) -> Traced {
+        let var_of = |node: Node| match node {
+            Node::State(i) => Some(i),
+            Node::Input(k) => Some(n as u32 + k),
+            Node::Time => Some((n + m) as u32),
+            _ => None,
+        };
+        let grads = diff::gradients(&mut g, &f, var_of);
+        let (mut jx, mut ju, mut jt) = (Vec::new(), Vec::new(), Vec::new());
+        for (i, grad) in grads.into_iter().enumerate() {
+            for (v, d) in grad {
+                let v = v as usize;
+                if v < n {
+                    jx.push((i, v, d));
+                } else if v < n + m {
+                    ju.push((i, v - n, d));
+                } else {
+                    jt.push((i, d));
+                }
+            }
+        }
+        jx.sort_unstable_by_key(|&(i, j, _)| (j, i));
+        Traced {
+            g,
+            n,
+            m,
+            f,
+            jx,
+            ju,
+            jt,
+            model: model.to_string(),
+            names: Names::default(),
+        }
+    }
+
+    /// The same trace printing with these state and input names.
+    pub fn with_names(mut self, states: &[&str], inputs: &[&str]) -> Self {
+        self.names.states = states.iter().map(|s| s.to_string()).collect();
+        self.names.inputs = inputs.iter().map(|s| s.to_string()).collect();
+        self
+    }
+
+    /// The names in use.
+    pub fn names(&self) -> &Names {
+        &self.names
+    }
+
+    /// State dimension `n`.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
+    /// Number of inputs `m`.
+    pub fn inputs(&self) -> usize {
+        self.m
+    }
+
+    /// The traced model's name (the function that defined it).
+    pub fn model(&self) -> &str {
+        &self.model
+    }
+
+    /// Nodes in the graph (values and derivatives, shared).
+    pub fn nodes(&self) -> usize {
+        self.g.len()
+    }
+
+    /// `fᵢ`.
+    pub fn rhs(&self, i: usize) -> Expr<'_> {
+        Expr {
+            tr: self,
+            id: self.f[i],
+        }
+    }
+
+    /// `∂fᵢ/∂xⱼ`, `None` where it is structurally zero.
+    pub fn jacobian_entry(&self, i: usize, j: usize) -> Option<Expr<'_>> {
+        self.jx
+            .iter()
+            .find(|e| e.0 == i && e.1 == j)
+            .map(|e| Expr { tr: self, id: e.2 })
+    }
+
+    /// The non-zeros `(i, j, ∂fᵢ/∂xⱼ)` of `∂f/∂x`, column by column.
+    pub fn jacobian(&self) -> impl Iterator<Item = (usize, usize, Expr<'_>)> + '_ {
+        self.jx.iter().map(move |&(i, j, id)| (i, j, Expr { tr: self, id }))
+    }
+
+    /// The non-zeros `(i, k, ∂fᵢ/∂uₖ)` of `∂f/∂u`, row by row.
+    pub fn input_jacobian(&self) -> impl Iterator<Item = (usize, usize, Expr<'_>)> + '_ {
+        self.ju.iter().map(move |&(i, k, id)| (i, k, Expr { tr: self, id }))
+    }
+
+    /// The non-zeros `(i, ∂fᵢ/∂t)` of `∂f/∂t` (empty for a model that does not read `t`).
+    pub fn time_derivative(&self) -> impl Iterator<Item = (usize, Expr<'_>)> + '_ {
+        self.jt.iter().map(move |&(i, id)| (i, Expr { tr: self, id }))
+    }
+
+    /// The sparsity pattern of `∂f/∂x`: the entries that are not structurally zero.
+    pub fn pattern(&self) -> Pattern {
+        let e: Vec<(usize, usize)> = self.jx.iter().map(|&(i, j, _)| (i, j)).collect();
+        Pattern::from_entries(self.n, &e)
+    }
+
+    /// `∂f/∂x` compiled into an instruction list over `f64` (see [`CompiledJacobian`]).
+    pub fn compile_jacobian(&self) -> CompiledJacobian {
+        let roots: Vec<u32> = self.jx.iter().map(|e| e.2).collect();
+        CompiledJacobian::new(self.pattern(), compile::Program::new(&self.g, &roots))
+    }
+
+    fn text_of(&self, id: u32) -> String {
+        print::text(&self.g, id, &self.names)
+    }
+
+    fn label(&self, i: usize, wrt: String) -> String {
+        format!("∂{}/∂{wrt}", dotted(&self.names.state(i)))
+    }
+
+    /// `∂f/∂x` as text, one line `∂ẋᵢ/∂xⱼ = …` per non-zero, row by row.
+    pub fn jacobian_text(&self) -> String {
+        let mut e = self.jx.clone();
+        e.sort_unstable_by_key(|&(i, j, _)| (i, j));
+        e.iter()
+            .map(|&(i, j, id)| format!("{} = {}\n", self.label(i, self.names.state(j)), self.text_of(id)))
+            .collect()
+    }
+
+    /// Everything as text: `f`, then the non-zeros of `∂f/∂x`, `∂f/∂u` and `∂f/∂t`.
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        for i in 0..self.n {
+            s += &format!("{} = {}\n", dotted(&self.names.state(i)), self.text_of(self.f[i]));
+        }
+        s += &self.jacobian_text();
+        for &(i, k, id) in &self.ju {
+            s += &format!("{} = {}\n", self.label(i, self.names.input(k)), self.text_of(id));
+        }
+        for &(i, id) in &self.jt {
+            s += &format!("{} = {}\n", self.label(i, self.names.time()), self.text_of(id));
+        }
+        s
+    }
+
+    /// `∂f/∂x` as a LaTeX `pmatrix` (`\frac{\partial f}{\partial x} = \begin{pmatrix}…`).
+    pub fn latex(&self) -> String {
+        let mut rows = vec![vec!["0".to_string(); self.n]; self.n];
+        for &(i, j, id) in &self.jx {
+            rows[i][j] = print::latex(&self.g, id, &self.names);
+        }
+        let body: Vec<String> = rows.iter().map(|r| r.join(" & ")).collect();
+        format!(
+            "\\frac{{\\partial f}}{{\\partial x}} = \\begin{{pmatrix}}\n{}\n\\end{{pmatrix}}",
+            body.join(" \\\\\n")
+        )
+    }
+
+    /// `∂f/∂x` as a MathML `<math>` element: a matrix in parentheses, rows the
+    /// components of `f`, columns the states (labelled by the names).
+    pub fn mathml(&self) -> String {
+        let mut rows = vec![vec!["<mn>0</mn>".to_string(); self.n]; self.n];
+        for &(i, j, id) in &self.jx {
+            rows[i][j] = print::mathml(&self.g, id, &self.names);
+        }
+        let mut s = String::from(
+            "<math xmlns=\"http://www.w3.org/1998/Math/MathML\" display=\"block\"><mrow>\
+             <mfrac><mrow><mo>∂</mo><mi>f</mi></mrow><mrow><mo>∂</mo><mi>x</mi></mrow></mfrac><mo>=</mo>\
+             <mrow><mo>(</mo><mtable>",
+        );
+        for r in rows {
+            s += "<mtr>";
+            for c in r {
+                s += &format!("<mtd>{c}</mtd>");
+            }
+            s += "</mtr>";
+        }
+        s += "</mtable><mo>)</mo></mrow></mrow></math>";
+        s
+    }
+
+    /// Rust source of two functions, `rhs(t, x, u, dx)` (`dx ← f`) and
+    /// `jacobian(t, x, u, jac)` (`jac ← ∂f/∂x`, column-major `n × n`, `jac[i + n·j]`,
+    /// structural zeros left as they are), that compile on their own and compute what the
+    /// compiled evaluator computes.
+    pub fn rust(&self) -> String {
+        let n = self.n;
+        let mut s = format!("// generated by reckon::symbolic from `{}`\n", self.model);
+        let mut roots = self.f.clone();
+        roots.extend(self.jx.iter().map(|e| e.2));
+        if print::uses_sign(&self.g, &roots) {
+            s += "/// `sign a` as the symbolic derivative of `|a|` uses it (0 at 0).\n";
+            s += "fn sgn(a: f64) -> f64 {\n    if a == 0.0 || a.is_nan() { a } else { a.signum() }\n}\n\n";
+        }
+        let f: Vec<(String, u32)> = self
+            .f
+            .iter()
+            .enumerate()
+            .map(|(i, &id)| (format!("dx[{i}]"), id))
+            .collect();
+        s += &format!("/// `dx ← f(t, x, u)` ({n} states, {} inputs).\n", self.m);
+        s += "#[allow(unused_variables, clippy::all)]\n";
+        s += "pub fn rhs(t: f64, x: &[f64], u: &[f64], dx: &mut [f64]) {\n";
+        s += &print::rust_body(&self.g, &f, &self.names, "    ");
+        s += "}\n\n";
+        let jac: Vec<(String, u32)> = self
+            .jx
+            .iter()
+            .map(|&(i, j, id)| (format!("jac[{}]", i + n * j), id))
+            .collect();
+        s += &format!("/// `jac ← ∂f/∂x (t, x, u)`, column-major {n}×{n} (`jac[i + {n}·j] = ∂fᵢ/∂xⱼ`);\n");
+        s += "/// structural zeros are left as they are.\n";
+        s += "#[allow(unused_variables, clippy::all)]\n";
+        s += "pub fn jacobian(t: f64, x: &[f64], u: &[f64], jac: &mut [f64]) {\n";
+        s += &print::rust_body(&self.g, &jac, &self.names, "    ");
+        s += "}\n";
+        s
+    }
+
+    /// A JSON object: model, sizes, names, `f` and every non-zero of `∂f/∂x`, `∂f/∂u`,
+    /// `∂f/∂t` as text and LaTeX, and the pattern of `∂f/∂x` in CSC form.
+    pub fn json(&self) -> serde_json::Value {
+        let entry = |i: usize, j: usize, id: u32| {
+            serde_json::json!({
+                "row": i, "col": j,
+                "text": self.text_of(id),
+                "latex": print::latex(&self.g, id, &self.names),
+            })
+        };
+        let p = self.pattern();
+        serde_json::json!({
+            "model": self.model,
+            "states": (0..self.n).map(|i| self.names.state(i)).collect::<Vec<_>>(),
+            "inputs": (0..self.m).map(|k| self.names.input(k)).collect::<Vec<_>>(),
+            "rhs": self.f.iter().map(|&id| self.text_of(id)).collect::<Vec<_>>(),
+            "jacobian": self.jx.iter().map(|&(i, j, id)| entry(i, j, id)).collect::<Vec<_>>(),
+            "input_jacobian": self.ju.iter().map(|&(i, k, id)| entry(i, k, id)).collect::<Vec<_>>(),
+            "time_derivative": self.jt.iter().map(|&(i, id)| entry(i, 0, id)).collect::<Vec<_>>(),
+            "pattern": { "n": p.n(), "nnz": p.nnz(), "col_ptr": p.col_ptr(), "row_idx": p.row_idx() },
+        })
+    }
+}
+
+/// Trace `model` (a [`model!`](crate::model) closure) for a state of `n` components
+/// (ignored for fixed-size states).
+///
+/// `Err(`[`Error::Untraceable`]`)` when the body's control flow depends on the state or
+/// the model has no traced copy (a hand-written [`System`](crate::System)).
+///
+/// ```
+/// use reckon::{model, symbolic, Error};
+/// use nalgebra::vector;
+/// let ok = model!(|_, x: [S; 1]| vector![x[0].abs()]);
+/// assert_eq!(symbolic::trace(&ok, 1).unwrap().jacobian_text(), "∂ẋ₀/∂x₀ = sgn(x₀)\n");
+/// let branchy = model!(|_, x: [S; 1]| vector![if x[0] > S::from(0.0) { x[0].clone() } else { -x[0].clone() }]);
+/// assert!(matches!(symbolic::trace(&branchy, 1), Err(Error::Untraceable { .. })));
+/// ```
+pub fn trace<D: Dim, S: crate::System<D>>(model: &S, n: usize) -> Result<Traced>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    model.symbolic(n).unwrap_or_else(|| {
+        Err(Error::Untraceable {
+            model: std::any::type_name::<S>().to_string(),
+            reason: "it is not a model! closure (a hand-written System has no body to trace)".into(),
+        })
+    })
+}

@@ -1,0 +1,324 @@
+//! Symbolic Jacobians traced from the same `model!` bodies: equal to num-dual's for every
+//! model and problem in the crate and for random expression bodies; printed forms pinned;
+//! sparsity patterns exact; untraceable bodies refused with the typed error.
+
+use nalgebra::{DMatrix, DVector, OMatrix, SVector, vector};
+use proptest::prelude::*;
+use rand::{Rng, SeedableRng, rngs::StdRng};
+use reckon::models::{bicycle, body3d, carlike, unicycle};
+use reckon::num_dual::DualNum;
+use reckon::problems::*;
+use reckon::sparse::{Pattern, SparseJacobian};
+use reckon::{Error, System, model, symbolic};
+
+/// `max |a − b| ≤ tol·max(|b|, tiny)` over the matrix.
+fn close(a: &[f64], b: &[f64], tol: f64) -> bool {
+    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-300);
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol * scale)
+}
+
+/// The compiled symbolic Jacobian against num-dual's at `points` random states.
+fn check_fixed<const N: usize>(name: &str, f: &impl System<nalgebra::Const<N>>, inputs: usize, seed: u64)
+where
+    nalgebra::Const<N>: nalgebra::DimMin<nalgebra::Const<N>>,
+{
+    let tr = symbolic::trace(f, N).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let mut compiled = tr.compile_jacobian();
+    let mut rng = StdRng::seed_from_u64(seed);
+    for _ in 0..20 {
+        let x = SVector::<f64, N>::from_fn(|_, _| rng.random_range(0.1..1.5));
+        let u: Vec<f64> = (0..inputs).map(|_| rng.random_range(-1.0..1.0)).collect();
+        let t = rng.random_range(0.0..3.0);
+        let mut jd = OMatrix::<f64, nalgebra::Const<N>, nalgebra::Const<N>>::zeros();
+        f.jacobian(t, &x, &u, &mut jd);
+        let mut js = vec![f64::NAN; N * N];
+        compiled.eval_dense(t, x.as_slice(), &u, &mut js);
+        assert!(
+            close(&js, jd.as_slice(), 1e-14),
+            "{name} at x = {x:?}, u = {u:?}:\nsymbolic {js:?}\nnum-dual {jd}"
+        );
+        // and through the sparse interface
+        let mut v = vec![0.0; compiled.pattern().nnz()];
+        compiled.eval(t, x.as_slice(), &u, &mut v);
+        for ((i, j), val) in compiled.pattern().entries().zip(&v) {
+            assert_eq!(
+                *val,
+                js[i + N * j],
+                "{name}: sparse and dense values differ at ({i}, {j})"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_model_and_problem_matches_num_dual() {
+    check_fixed("unicycle", &unicycle::model(), 2, 1);
+    check_fixed("bicycle", &bicycle::model(0.5), 2, 2);
+    check_fixed("carlike", &carlike::model(2.5), 2, 3);
+    check_fixed("body3d", &body3d::model(), 6, 4);
+    check_fixed("imu 2-D", &reckon::reckoning::imu::model_2d(), 3, 5);
+    check_fixed("rotation–decay", &rotation_decay(), 0, 6);
+    check_fixed("sin u", &sin_u(), 0, 7);
+    check_fixed("stiff cosine", &stiff_cosine(), 0, 8);
+    check_fixed("Arenstorf", &arenstorf(), 0, 9);
+    check_fixed("Van der Pol", &van_der_pol(1000.0), 0, 10);
+    check_fixed("Robertson", &robertson(), 0, 11);
+    check_fixed("OREGO", &orego(), 0, 12);
+    check_fixed("HIRES", &hires(), 0, 13);
+    check_fixed("Lorenz", &lorenz(), 0, 14);
+}
+
+#[test]
+fn brusselator_matches_num_dual_and_is_pentadiagonal() {
+    let n = 50;
+    let f = brusselator(n);
+    let tr = symbolic::trace(&f, 2 * n).unwrap();
+    let mut compiled = tr.compile_jacobian();
+    let mut rng = StdRng::seed_from_u64(21);
+    let x = DVector::from_fn(2 * n, |_, _| rng.random_range(0.5..3.5));
+    let mut jd = DMatrix::zeros(2 * n, 2 * n);
+    f.jacobian(0.0, &x, &[], &mut jd);
+    let mut js = vec![0.0; 4 * n * n];
+    compiled.eval_dense(0.0, x.as_slice(), &[], &mut js);
+    assert!(close(&js, jd.as_slice(), 1e-14));
+    // u_i couples to u_{i−1}, u_i, v_i, u_{i+1}; v_i to v_{i−1}, u_i, v_i, v_{i+1}
+    let mut e = Vec::new();
+    for i in 0..n {
+        let (u, v) = (2 * i, 2 * i + 1);
+        e.extend([(u, u), (u, v), (v, u), (v, v)]);
+        if i > 0 {
+            e.extend([(u, u - 2), (v, v - 2)]);
+        }
+        if i + 1 < n {
+            e.extend([(u, u + 2), (v, v + 2)]);
+        }
+    }
+    assert_eq!(tr.pattern(), Pattern::from_entries(2 * n, &e));
+    // at 500 points: the 3 996 non-zeros of the published count
+    assert_eq!(symbolic::trace(&brusselator(500), 1000).unwrap().pattern().nnz(), 3996);
+}
+
+#[test]
+fn unicycle_and_bicycle_print_their_hand_derivations() {
+    let u = symbolic::trace(&unicycle::model(), 3)
+        .unwrap()
+        .with_names(&["x", "y", "θ"], &["v", "ω"]);
+    assert_eq!(u.jacobian_text(), "∂ẋ/∂θ = −v·sin(θ)\n∂ẏ/∂θ = v·cos(θ)\n");
+    assert_eq!(
+        u.text(),
+        "ẋ = v·cos(θ)\nẏ = v·sin(θ)\nθ̇ = ω\n\
+         ∂ẋ/∂θ = −v·sin(θ)\n∂ẏ/∂θ = v·cos(θ)\n\
+         ∂ẋ/∂v = cos(θ)\n∂ẏ/∂v = sin(θ)\n∂θ̇/∂ω = 1\n"
+    );
+    assert_eq!(
+        u.latex(),
+        "\\frac{\\partial f}{\\partial x} = \\begin{pmatrix}\n\
+         0 & 0 & -v \\, \\sin \\theta \\\\\n0 & 0 & v \\, \\cos \\theta \\\\\n0 & 0 & 0\n\\end{pmatrix}"
+    );
+    // default names
+    let d = symbolic::trace(&unicycle::model(), 3).unwrap();
+    assert_eq!(d.jacobian_text(), "∂ẋ₀/∂x₂ = −u₀·sin(x₂)\n∂ẋ₁/∂x₂ = u₀·cos(x₂)\n");
+
+    let b = symbolic::trace(&bicycle::model(0.5), 3)
+        .unwrap()
+        .with_names(&["x", "y", "θ"], &["v", "α"]);
+    assert_eq!(b.jacobian_text(), "∂ẋ/∂θ = −v·sin(θ)\n∂ẏ/∂θ = v·cos(θ)\n");
+    // θ' = v·tan α / L: the inputs' Jacobian has the steering derivative (1 + tan²α)·v/L
+    let du: Vec<String> = b.input_jacobian().map(|(i, k, e)| format!("{i}{k}: {e}")).collect();
+    assert_eq!(
+        du,
+        ["00: cos(θ)", "10: sin(θ)", "20: 2·tan(α)", "21: 2·v·(tan(α)² + 1)"]
+    );
+}
+
+#[test]
+fn mathml_is_well_formed_and_names_the_entries() {
+    let u = symbolic::trace(&unicycle::model(), 3)
+        .unwrap()
+        .with_names(&["x", "y", "θ"], &["v", "ω"]);
+    let m = u.mathml();
+    let doc = roxmltree::Document::parse(&m).expect("well-formed XML");
+    assert_eq!(doc.root_element().tag_name().name(), "math");
+    let rows = doc.descendants().filter(|n| n.tag_name().name() == "mtr").count();
+    assert_eq!(rows, 3);
+    assert!(m.contains("<mi>θ</mi>") && m.contains("<mi>sin</mi>") && m.contains("<mi>v</mi>"));
+}
+
+mod generated {
+    include!("generated/unicycle.rs");
+}
+
+#[test]
+fn rust_source_is_the_checked_in_file_and_evaluates_to_the_same_matrix() {
+    let tr = symbolic::trace(&unicycle::model(), 3).unwrap();
+    assert_eq!(
+        tr.rust(),
+        include_str!("generated/unicycle.rs"),
+        "regenerate tests/generated/unicycle.rs"
+    );
+    let (x, u) = ([1.0, 2.0, 0.7], [1.3, 0.4]);
+    let mut jac = [0.0; 9];
+    generated::jacobian(0.0, &x, &u, &mut jac);
+    let mut want = [f64::NAN; 9];
+    tr.compile_jacobian().eval_dense(0.0, &x, &u, &mut want);
+    assert_eq!(jac, want);
+    let mut dx = [0.0; 3];
+    generated::rhs(0.0, &x, &u, &mut dx);
+    let mut f = vector![0.0, 0.0, 0.0];
+    unicycle::model().rhs(0.0, &vector![1.0, 2.0, 0.7], &u, &mut f);
+    assert_eq!(dx, [f[0], f[1], f[2]]);
+}
+
+#[test]
+fn time_derivative_is_symbolic_for_a_typed_time() {
+    let tr = symbolic::trace(&stiff_cosine(), 1).unwrap();
+    let dt: Vec<String> = tr.time_derivative().map(|(_, e)| e.to_string()).collect();
+    assert_eq!(dt, ["−1000·sin(t) − cos(t)"]);
+    let (_, e) = tr.time_derivative().next().unwrap();
+    let t: f64 = 0.3;
+    assert!((e.eval(t, &[0.2], &[]) - (-1000.0 * t.sin() - t.cos())).abs() < 1e-12);
+}
+
+#[test]
+fn state_dependent_branch_is_the_typed_error_naming_the_model() {
+    fn saturating() -> impl System<nalgebra::Const<1>> {
+        model!(|_, x: [S; 1]| vector![if x[0] > S::from(1.0) {
+            S::from(1.0)
+        } else {
+            x[0].clone()
+        }])
+    }
+    match symbolic::trace(&saturating(), 1) {
+        Err(Error::Untraceable { model, reason }) => {
+            assert!(model.ends_with("saturating"), "{model}");
+            assert!(reason.contains("comparison"), "{reason}");
+        }
+        other => panic!("expected Untraceable, got {other:?}"),
+    }
+    // it still integrates, with num-dual's Jacobian
+    let mut j = nalgebra::Matrix1::zeros();
+    saturating().jacobian(0.0, &vector![0.5], &[], &mut j);
+    assert_eq!(j[(0, 0)], 1.0);
+    assert!(saturating().sparse_jacobian(1).is_none());
+    // a plain-f64 time the body computes with is refused too
+    let plain = model!(|t, x: [S; 1]| vector![x[0] * t]);
+    assert!(matches!(symbolic::trace(&plain, 1), Err(Error::Untraceable { .. })));
+    // a hand-written System has nothing to trace
+    struct Hand;
+    impl System<nalgebra::Const<1>> for Hand {
+        fn rhs(&self, _: f64, x: &SVector<f64, 1>, _: &[f64], dx: &mut SVector<f64, 1>) {
+            *dx = -x;
+        }
+        fn jacobian(&self, _: f64, _: &SVector<f64, 1>, _: &[f64], j: &mut nalgebra::Matrix1<f64>) {
+            j[(0, 0)] = -1.0;
+        }
+    }
+    assert!(matches!(symbolic::trace(&Hand, 1), Err(Error::Untraceable { .. })));
+}
+
+/// A random expression over three variables, evaluated at any scalar: the body of a
+/// `model!` whose every operation is traced.
+#[derive(Debug, Clone)]
+enum E {
+    X(usize),
+    C(f64),
+    Add(Box<E>, Box<E>),
+    Sub(Box<E>, Box<E>),
+    Mul(Box<E>, Box<E>),
+    /// `a / (1 + b²)`: a quotient with no pole
+    Div(Box<E>, Box<E>),
+    F(u8, Box<E>),
+    Powi(Box<E>, i32),
+    Atan2(Box<E>, Box<E>),
+}
+
+fn eval<S: DualNum<Primitive = f64>>(e: &E, x: &[S]) -> S {
+    match e {
+        E::X(i) => x[*i].clone(),
+        E::C(c) => S::from(*c),
+        E::Add(a, b) => eval(a, x) + eval(b, x),
+        E::Sub(a, b) => eval(a, x) - eval(b, x),
+        E::Mul(a, b) => eval(a, x) * eval(b, x),
+        E::Div(a, b) => eval(a, x) / (eval(b, x).powi(2) + 1.0),
+        E::Powi(a, n) => eval(a, x).powi(*n),
+        E::Atan2(a, b) => eval(a, x).atan2(eval(b, x)),
+        E::F(k, a) => {
+            let a = eval(a, x);
+            // each function on an argument inside its domain
+            match k % 16 {
+                0 => a.sin(),
+                1 => a.cos(),
+                2 => a.tanh().tan(),
+                3 => (a.tanh() * 0.5).exp(),
+                4 => (a.powi(2) + 1.0).ln(),
+                5 => (a.powi(2) + 0.5).sqrt(),
+                6 => a.cbrt(),
+                7 => a.abs(),
+                8 => a.tanh().asin(),
+                9 => a.tanh().acos(),
+                10 => a.atan(),
+                11 => a.tanh().sinh(),
+                12 => a.tanh().cosh(),
+                13 => (a.powi(2) + 1.0).acosh() + a.asinh(),
+                14 => (a.tanh() * 0.9).atanh(),
+                _ => a.tanh().exp_m1() + a.tanh().ln_1p() + a.powi(2).powf(0.75),
+            }
+        }
+    }
+}
+
+fn expr() -> impl Strategy<Value = E> {
+    let leaf = prop_oneof![(0..3usize).prop_map(E::X), (-2.0..2.0f64).prop_map(E::C)];
+    leaf.prop_recursive(5, 40, 2, |inner| {
+        prop_oneof![
+            (inner.clone(), inner.clone()).prop_map(|(a, b)| E::Add(Box::new(a), Box::new(b))),
+            (inner.clone(), inner.clone()).prop_map(|(a, b)| E::Sub(Box::new(a), Box::new(b))),
+            (inner.clone(), inner.clone()).prop_map(|(a, b)| E::Mul(Box::new(a), Box::new(b))),
+            (inner.clone(), inner.clone()).prop_map(|(a, b)| E::Div(Box::new(a), Box::new(b))),
+            (inner.clone(), inner.clone()).prop_map(|(a, b)| E::Atan2(Box::new(a), Box::new(b))),
+            (any::<u8>(), inner.clone()).prop_map(|(k, a)| E::F(k, Box::new(a))),
+            (inner, -3..4i32).prop_map(|(a, n)| E::Powi(Box::new(a), n)),
+        ]
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    #[test]
+    fn random_bodies_differentiate_like_num_dual(
+        es in proptest::collection::vec(expr(), 3),
+        x in proptest::collection::vec(0.2..1.7f64, 3),
+    ) {
+        let es = &es;
+        let f = model!(|_, y: [S; 3]| vector![eval(&es[0], y.as_slice()), eval(&es[1], y.as_slice()), eval(&es[2], y.as_slice())]);
+        let xv = vector![x[0], x[1], x[2]];
+        let mut jd = nalgebra::Matrix3::zeros();
+        f.jacobian(0.0, &xv, &[], &mut jd);
+        let mut fx = vector![0.0, 0.0, 0.0];
+        f.rhs(0.0, &xv, &[], &mut fx);
+        // a point where the body itself overflows or saturates is no test of its derivative
+        prop_assume!(jd.iter().chain(fx.iter()).all(|v| v.is_finite() && v.abs() < 1e8));
+        let tr = symbolic::trace(&f, 3).unwrap();
+        let mut js = vec![0.0; 9];
+        tr.compile_jacobian().eval_dense(0.0, &x, &[], &mut js);
+        for k in 0..9 {
+            let (a, b) = (js[k], jd.as_slice()[k]);
+            prop_assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "entry {}: symbolic {} num-dual {}", k, a, b);
+        }
+        // the values, too
+        for i in 0..3 {
+            let v = tr.rhs(i).eval(0.0, &x, &[]);
+            prop_assert!((v - fx[i]).abs() <= 1e-12 * (1.0 + fx[i].abs()));
+        }
+    }
+}
+
+#[test]
+fn hash_consing_shares_the_values_subexpressions_with_the_derivatives() {
+    // f = sin(x₀)·x₁: ∂f/∂x₁ is the node sin(x₀) of f itself
+    let f = model!(|_, x: [S; 2]| vector![x[0].sin() * x[1], x[0].sin() * x[1]]);
+    let tr = symbolic::trace(&f, 2).unwrap();
+    assert_eq!(tr.rhs(0), tr.rhs(1));
+    let d = tr.jacobian_entry(0, 1).unwrap();
+    assert_eq!(d.to_string(), "sin(x₀)");
+}

@@ -6,11 +6,14 @@
 //! `cargo run --release --example sparse_scaling -- MODE`:
 //! - `scaling`: ImplicitEuler (20 fixed steps of 0.005) and Bdf (adaptive, rtol = atol =
 //!   1e-6 on `[0, 0.1]`) at 10³, 10⁴, 10⁵, 10⁶ states, one process each: wall time per
-//!   step per state and peak RSS (`VmHWM`).
+//!   step per state and peak RSS (`VmHWM`), with J coloured, by hand, and traced (the
+//!   shipped `problems::brusselator`, whose time includes tracing and compiling its body).
 //! - `versus`: 500 points (1 000 states) on `[0, 10]` at 5 mixed significant digits
 //!   (`−log10 max|y − y_ref|/(1 + |y_ref|)`, reference Rodas5P and Bdf at 1e-11 agreeing):
-//!   reckon's Bdf sparse (coloured, hand) and dense (`problems::brusselator`'s num-dual
-//!   dense J; the hand-written dense J), and diffsol 0.18's BDF with its faer sparse LU.
+//!   reckon's Bdf sparse (`problems::brusselator` under `Auto`: the traced, compiled J;
+//!   coloured; hand) and dense (`problems::brusselator`'s num-dual dense J; the
+//!   hand-written dense J), Rodas5P sparse, and diffsol 0.18's BDF with its faer sparse LU.
+//! - `setup STATES`: the time to trace and compile `problems::brusselator`'s body alone.
 //! - `crossover`: one factorisation + solve of `I − c·J`, faer dense LU vs
 //!   [`SparseLu`](reckon::sparse::SparseLu), BRUSS pattern by size and random patterns by
 //!   density (for `AUTO_MIN_STATES`, `AUTO_MAX_DENSITY`).
@@ -44,19 +47,28 @@ fn jac(s: &str) -> Jac {
     }
 }
 
-/// One run in this process: `one METHOD JAC STATES`.
+/// One run in this process: `one METHOD JAC STATES` (`JAC` = `traced`: the shipped
+/// `problems::brusselator`, whose `model!` body the symbolic layer traces and compiles).
 fn one(method: &str, j: &str, states: usize) {
     let n = states / 2;
-    let sys = Bruss::new(n, jac(j));
+    let t0 = Instant::now();
+    if j == "traced" {
+        run_one(&brusselator(n), method, j, states, t0);
+    } else {
+        run_one(&Bruss::new(n, jac(j)), method, j, states, t0);
+    }
+}
+
+fn run_one<S: reckon::System<nalgebra::Dyn>>(sys: &S, method: &str, j: &str, states: usize, t0: Instant) {
+    let n = states / 2;
     let x0 = brusselator_y0(n);
     let base = Options::default()
         .save(Save::End)
         .dense(false)
         .linear_solver(LinearSolver::Sparse);
-    let t0 = Instant::now();
     let sol = match method {
-        "ie" => Problem::new(&sys, x0, (0.0, 0.1)).solve(ImplicitEuler::default(), &base.fixed(0.005)),
-        _ => Problem::new(&sys, x0, (0.0, 0.1)).solve(Bdf::default(), &base.rtol(1e-6).atol(1e-6)),
+        "ie" => Problem::new(sys, x0, (0.0, 0.1)).solve(ImplicitEuler::default(), &base.fixed(0.005)),
+        _ => Problem::new(sys, x0, (0.0, 0.1)).solve(Bdf::default(), &base.rtol(1e-6).atol(1e-6)),
     }
     .expect("solves");
     let secs = t0.elapsed().as_secs_f64();
@@ -79,7 +91,7 @@ fn scaling() {
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     let exe = std::env::current_exe().expect("own path");
     for method in ["ie", "bdf"] {
-        for j in ["coloured", "hand"] {
+        for j in ["coloured", "hand", "traced"] {
             for states in [1_000usize, 10_000, 100_000, 1_000_000] {
                 let out = std::process::Command::new(&exe)
                     .args(["one", method, j, &states.to_string()])
@@ -251,8 +263,23 @@ fn versus() {
         target,
     );
     let sys = brusselator(N);
-    let nd: Solve<'_> = Box::new(|rtol| {
+    let traced: Solve<'_> = Box::new(|rtol| {
         let o = Options::default().rtol(rtol).atol(rtol).save(Save::End).dense(false);
+        Problem::new(&sys, brusselator_y0(N), (0.0, T_END))
+            .solve(Bdf::default(), &o)
+            .expect("solves")
+            .last()
+            .1
+            .clone()
+    });
+    let s_tr = at_digits("reckon Bdf Auto (model!, traced J)", &traced, &r, target);
+    let nd: Solve<'_> = Box::new(|rtol| {
+        let o = Options::default()
+            .rtol(rtol)
+            .atol(rtol)
+            .save(Save::End)
+            .dense(false)
+            .linear_solver(LinearSolver::Dense);
         Problem::new(&sys, brusselator_y0(N), (0.0, T_END))
             .solve(Bdf::default(), &o)
             .expect("solves")
@@ -280,10 +307,13 @@ fn versus() {
     let dsol: Solve<'_> = Box::new(|rtol| ds::solve(rtol, &y0, T_END));
     let s_ds = at_digits("diffsol 0.18 BDF, FaerSparseLU", &dsol, &r, target);
     println!(
-        "\ndense (model!) / sparse (coloured): {:.0}×; dense (hand) / sparse (hand): {:.0}×; \
-         diffsol sparse / reckon sparse (hand): {:.2}×, (coloured): {:.2}×",
+        "\ndense (model!) / sparse (model!, traced): {:.0}×; / sparse (coloured): {:.0}×; \
+         dense (hand) / sparse (hand): {:.0}×; diffsol sparse / reckon sparse: traced {:.2}×, \
+         hand {:.2}×, coloured {:.2}×",
+        d_nd / s_tr,
         d_nd / s_col,
         d_hand / s_hand,
+        s_ds / s_tr,
         s_ds / s_hand,
         s_ds / s_col
     );
@@ -373,6 +403,19 @@ fn main() {
         Some("one") => one(&args[2], &args[3], args[4].parse().expect("states")),
         Some("versus") => versus(),
         Some("crossover") => crossover(),
+        Some("setup") => {
+            // trace + compile of the shipped model's body alone
+            let states: usize = args[2].parse().expect("states");
+            let sys = brusselator(states / 2);
+            let t0 = Instant::now();
+            let j = reckon::System::sparse_jacobian(&sys, states).expect("traced");
+            println!(
+                "{states} states: trace + compile {:.3} s, nnz {}, peak RSS {:.0} MiB",
+                t0.elapsed().as_secs_f64(),
+                j.pattern().nnz(),
+                peak_rss_mib()
+            );
+        }
         _ => scaling(),
     }
 }

@@ -80,11 +80,12 @@ pub struct Options {
 /// ```
 /// use reckon::{model, methods::ImplicitEuler, options::LinearSolver, Error, Options, Problem};
 /// use nalgebra::vector;
-/// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+/// // a body that branches on the state cannot be traced: no sparse Jacobian
+/// let f = model!(|_t, x: [S; 1]| vector![if x[0] > S::from(2.0) { S::from(2.0) } else { -x[0].clone() }]);
 /// let p = Problem::new(&f, vector![1.0], (0.0, 1.0));
 /// assert_eq!(Options::default().linear_solver, LinearSolver::Auto);
+/// assert!(p.solve(ImplicitEuler::default(), &Options::default()).is_ok()); // dense
 /// let forced = Options::default().linear_solver(LinearSolver::Sparse);
-/// // this model offers no sparse Jacobian
 /// let e = p.solve(ImplicitEuler::default(), &forced).unwrap_err();
 /// assert!(matches!(e, Error::InvalidInput { what: "linear_solver", .. }));
 /// ```

@@ -158,15 +158,22 @@ fn auto_chooses_by_size_and_density() {
     assert!(small.dense_calls.get() > 0);
 }
 
-/// Forcing `Sparse` on a model without a sparse Jacobian is a typed error that says why.
+/// Forcing `Sparse` on a model without a sparse Jacobian (a hand-written `System`, a
+/// `model!` whose body branches on the state and so cannot be traced) is a typed error
+/// that says why; `Auto` and `Dense` run such a model densely.
 #[test]
 fn forced_sparse_without_sparse_jacobian_is_refused() {
     let o = Options::default().linear_solver(LinearSolver::Sparse);
-    let p = Problem::new(brusselator(40), brusselator_y0(40), (0.0, 1.0));
+    let none = Bruss::new(40, Jac::None);
+    let p = Problem::new(&none, brusselator_y0(40), (0.0, 1.0));
+    let branchy = reckon::model!(|_, x: [S; Dyn]| x.map(|v| if v > S::from(0.0) { -v.clone() } else { v * 2.0 }));
+    let q = Problem::new(&branchy, DVector::from_element(80, 1.0), (0.0, 1.0));
+    assert!(branchy.sparse_jacobian(80).is_none());
     for e in [
         p.solve(Bdf::default(), &o).unwrap_err(),
         p.solve(ImplicitEuler::default(), &o).unwrap_err(),
         p.solve(Rodas5P::default(), &o).unwrap_err(),
+        q.solve(Bdf::default(), &o).unwrap_err(),
     ] {
         match e {
             Error::InvalidInput { what, reason } => {
@@ -176,17 +183,65 @@ fn forced_sparse_without_sparse_jacobian_is_refused() {
             e => panic!("{e:?}"),
         }
     }
-    // Auto and Dense run it densely
-    assert!(p.solve(Bdf::default(), &Options::default()).is_ok());
-    let none = Bruss::new(40, Jac::None);
-    let e = Problem::new(&none, brusselator_y0(40), (0.0, 1.0)).solve(Bdf::default(), &o);
-    assert!(matches!(
-        e,
-        Err(Error::InvalidInput {
-            what: "linear_solver",
-            ..
-        })
-    ));
+    for l in [LinearSolver::Auto, LinearSolver::Dense] {
+        let o = Options::default().linear_solver(l);
+        assert!(p.solve(Bdf::default(), &o).is_ok());
+        let y = q.solve(Bdf::default(), &o).unwrap().last().1[0];
+        assert!((y - (-1.0f64).exp()).abs() < 1e-4, "{y}");
+    }
+}
+
+/// `problems::brusselator` is a traced `model!`: its compiled sparse Jacobian (the
+/// symbolic layer's) takes the sparse path under `Auto` and agrees with the dense run.
+#[test]
+fn traced_model_takes_the_sparse_path() {
+    let sys = brusselator(N);
+    let o = Options::default().rtol(1e-6).atol(1e-6).save(Save::End).dense(false);
+    let p = Problem::new(&sys, brusselator_y0(N), (0.0, 10.0));
+    let mut j = sys.sparse_jacobian(2 * N).expect("traced");
+    assert_eq!(j.pattern(), &bruss::pattern(N));
+    let y = brusselator_y0(N).map(|v| v * 0.9 + 0.05);
+    let mut v = vec![0.0; j.pattern().nnz()];
+    j.eval(0.0, y.as_slice(), &[], &mut v);
+    let mut w = vec![0.0; v.len()];
+    Bruss::new(N, Jac::Hand)
+        .sparse_jacobian(2 * N)
+        .unwrap()
+        .eval(0.0, y.as_slice(), &[], &mut w);
+    let worst = v.iter().zip(&w).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(worst <= 1e-14 * 2.0e4, "compiled vs hand {worst:e}");
+    // a spy on the dense Jacobian: the Auto run never calls it
+    struct Spy<M>(M, std::cell::Cell<usize>);
+    impl<M: System<Dyn>> System<Dyn> for Spy<M> {
+        fn rhs(&self, t: f64, x: &DVector<f64>, u: &[f64], dx: &mut DVector<f64>) {
+            self.0.rhs(t, x, u, dx)
+        }
+        fn jacobian(&self, t: f64, x: &DVector<f64>, u: &[f64], j: &mut DMatrix<f64>) {
+            self.1.set(self.1.get() + 1);
+            self.0.jacobian(t, x, u, j)
+        }
+        fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn SparseJacobian + '_>> {
+            self.0.sparse_jacobian(n)
+        }
+    }
+    let spy = Spy(brusselator(N), Default::default());
+    let auto = Problem::new(&spy, brusselator_y0(N), (0.0, 10.0))
+        .solve(Bdf::default(), &o)
+        .unwrap();
+    assert_eq!(spy.1.get(), 0, "Auto took the sparse path");
+    assert!(auto.stats.jacobian_evals > 0);
+    let dense = p
+        .solve(Bdf::default(), &o.clone().linear_solver(LinearSolver::Dense))
+        .unwrap();
+    let err = (auto.last().1 - dense.last().1).amax() / dense.last().1.amax();
+    assert!(err < 1e-10, "{err:e}");
+    assert_eq!(auto.stats.accepted, dense.stats.accepted);
+    // the 2-D Brusselator too: its pattern is the one detected from the dual body
+    let m = 8;
+    let f8 = brusselator_2d(m);
+    let g = |t: f64, x: &DVector<DualDVec64>, u: &[f64]| reckon::DualSystem::rhs_dual(&f8, t, x, u);
+    let detected = detect_pattern(&g, 0.0, &brusselator_2d_y0(m), &[]);
+    assert_eq!(f8.sparse_jacobian(2 * m * m).expect("traced").pattern(), &detected);
 }
 
 /// Greedy colouring of BRUSS 1-D's interleaved `(u_i, v_i)` pattern: 4 colours at every

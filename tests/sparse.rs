@@ -166,6 +166,7 @@ fn forced_sparse_without_sparse_jacobian_is_refused() {
     let o = Options::default().linear_solver(LinearSolver::Sparse);
     let none = Bruss::new(40, Jac::None);
     let p = Problem::new(&none, brusselator_y0(40), (0.0, 1.0));
+    #[allow(clippy::cmp_owned)] // S = f64 in one copy
     let branchy = reckon::model!(|_, x: [S; Dyn]| x.map(|v| if v > S::from(0.0) { -v.clone() } else { v * 2.0 }));
     let q = Problem::new(&branchy, DVector::from_element(80, 1.0), (0.0, 1.0));
     assert!(branchy.sparse_jacobian(80).is_none());
@@ -327,4 +328,38 @@ fn brusselator_2d_matches_published_rhs() {
     let p = detect_pattern(&g, 0.0, &brusselator_2d_y0(m), &[]);
     assert_eq!(p.nnz(), 6 * 2 * m * m);
     assert!(p.density() < 0.05);
+}
+
+/// The implicit methods stay `Send + Sync` with the sparse variant inside.
+#[test]
+fn methods_are_send_and_sync() {
+    fn check<T: Send + Sync>() {}
+    check::<ImplicitEuler<Dyn>>();
+    check::<Bdf<Dyn>>();
+    check::<Rodas5P<Dyn>>();
+    check::<reckon::methods::Auto<Dyn>>();
+    check::<SparseLu>();
+}
+
+/// `Auto` (DOPRI5 ↔ BDF on `h·‖J‖∞`, the norm taken from the sparse values on the sparse
+/// path) makes the same switches at the same steps on both paths.
+#[test]
+fn auto_method_switches_alike_on_both_paths() {
+    let sys = Bruss::new(100, Jac::Hand);
+    let p = Problem::new(&sys, brusselator_y0(100), (0.0, 10.0));
+    let o = Options::default().rtol(1e-5).atol(1e-5).save(Save::End).dense(false);
+    let s = p
+        .solve(
+            reckon::methods::Auto::default(),
+            &o.clone().linear_solver(LinearSolver::Sparse),
+        )
+        .unwrap();
+    let d = p
+        .solve(reckon::methods::Auto::default(), &o.linear_solver(LinearSolver::Dense))
+        .unwrap();
+    assert!(!s.switches.is_empty(), "BRUSS is stiff: Auto switches to BDF");
+    assert_eq!(s.switches, d.switches);
+    assert_eq!(s.stats.accepted, d.stats.accepted);
+    let err = (s.last().1 - d.last().1).amax() / d.last().1.amax();
+    assert!(err < 1e-10, "{err:e}");
 }

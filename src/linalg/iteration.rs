@@ -8,7 +8,6 @@ use crate::sparse::{Pattern, SparseLu};
 use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OMatrix, OVector};
-use std::cell::Cell;
 
 /// `J` and the LU of `M = a·I + b·J`, dense or sparse as the run chose
 /// ([`Eval::sparse_pattern`]).
@@ -34,8 +33,9 @@ pub(crate) struct SparseMatrix {
     /// `m[diag[i]]` is `M_ii`.
     diag: Vec<usize>,
     lu: SparseLu,
-    /// `‖J‖∞`, computed on demand once per `J`.
-    norm: Cell<Option<f64>>,
+    /// `‖J‖∞` of the current `J` (computed with it: O(nnz)) and the row sums it uses.
+    norm: f64,
+    rows: Vec<f64>,
 }
 
 impl SparseMatrix {
@@ -53,8 +53,9 @@ impl SparseMatrix {
             to_m,
             diag,
             lu,
+            rows: vec![0.0; pattern.n()],
             pattern,
-            norm: Cell::new(None),
+            norm: f64::NAN,
         })
     }
 }
@@ -88,8 +89,13 @@ where
             }
             IterationMatrix::Sparse(s) => {
                 s.lu_drop();
-                s.norm.set(None);
-                f.sparse_jacobian(t, x, &mut s.j)
+                f.sparse_jacobian(t, x, &mut s.j)?;
+                s.rows.fill(0.0);
+                for (&i, v) in s.pattern.row_idx().iter().zip(&s.j) {
+                    s.rows[i] += v.abs();
+                }
+                s.norm = s.rows.iter().copied().fold(0.0, f64::max);
+                Ok(())
             }
         }
     }
@@ -158,18 +164,7 @@ where
                 .row_iter()
                 .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
                 .fold(0.0, f64::max),
-            IterationMatrix::Sparse(s) => {
-                if let Some(v) = s.norm.get() {
-                    return v;
-                }
-                let mut rows = vec![0.0; s.pattern.n()];
-                for (&i, v) in s.pattern.row_idx().iter().zip(&s.j) {
-                    rows[i] += v.abs();
-                }
-                let v = rows.into_iter().fold(0.0, f64::max);
-                s.norm.set(Some(v));
-                v
-            }
+            IterationMatrix::Sparse(s) => s.norm,
         }
     }
 }
@@ -177,5 +172,41 @@ where
 impl SparseMatrix {
     fn lu_drop(&mut self) {
         self.lu.forget();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::IterationMatrix;
+    use crate::options::LinearSolver;
+    use crate::problems::{brusselator, brusselator_y0};
+    use crate::system::Eval;
+
+    /// `‖J‖∞` and the solves agree between the dense and the sparse variant.
+    #[test]
+    fn sparse_variant_matches_dense() {
+        let n = 40;
+        let sys = brusselator(n);
+        let x = brusselator_y0(n).map(|v| v * 0.9 + 0.05);
+        let mut fs = Eval::new(&sys, Vec::new());
+        fs.sparse.choice = LinearSolver::Sparse;
+        let mut fd = Eval::new(&sys, Vec::new());
+        fd.sparse.choice = LinearSolver::Dense;
+        let mut s = IterationMatrix::new(&mut fs, &x).unwrap();
+        let mut d = IterationMatrix::new(&mut fd, &x).unwrap();
+        assert!(matches!(s, IterationMatrix::Sparse(_)) && matches!(d, IterationMatrix::Dense { .. }));
+        s.evaluate(&mut fs, 0.0, &x).unwrap();
+        d.evaluate(&mut fd, 0.0, &x).unwrap();
+        assert!((s.norm_inf() - d.norm_inf()).abs() <= 1e-14 * d.norm_inf());
+        assert!(!s.is_factored() && !s.solve(&mut x.clone()));
+        for (a, b) in [(1.0, -1e-3), (1.0 / (0.01 * 0.2), -1.0)] {
+            assert!(s.factor(a, b) && d.factor(a, b));
+            let (mut vs, mut vd) = (x.clone(), x.clone());
+            assert!(s.solve(&mut vs) && d.solve(&mut vd));
+            assert!((&vs - &vd).amax() <= 1e-13 * vd.amax());
+        }
+        s.drop_lu();
+        assert!(!s.is_factored());
+        assert_eq!(fs.stats.jacobian_evals, 1);
     }
 }

@@ -126,6 +126,24 @@ where
         Coloured { pattern, colouring, g }
     }
 
+    /// The evaluator over the pattern [`detect_pattern`] finds at `x0` (and a perturbed
+    /// `x0`), for a model that has no pattern of its own (structural at those points only).
+    ///
+    /// ```
+    /// use reckon::sparse::{SparseJacobian, colour::Coloured};
+    /// use reckon::num_dual::DualDVec64;
+    /// use nalgebra::{DVector, dvector};
+    /// let g = |_t: f64, x: &DVector<DualDVec64>, _u: &[f64]| dvector![x[0].clone() * x[1].clone(), x[1].clone()];
+    /// let mut jac = Coloured::detected(g, 0.0, &dvector![1.0, 0.0], &[]);
+    /// let mut v = vec![0.0; jac.pattern().nnz()];
+    /// jac.eval(0.0, &[3.0, 2.0], &[], &mut v);
+    /// assert_eq!(v, [2.0, 3.0, 1.0]); // ∂f₀/∂x₀ = x₁, ∂f₀/∂x₁ = x₀, ∂f₁/∂x₁ = 1
+    /// ```
+    pub fn detected(g: G, t: f64, x0: &DVector<f64>, u: &[f64]) -> Self {
+        let p = detect_pattern(&g, t, x0, u);
+        Self::new(p, g)
+    }
+
     /// The colouring in use.
     pub fn colouring(&self) -> &Colouring {
         &self.colouring

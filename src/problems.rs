@@ -261,6 +261,14 @@ pub fn brusselator_2d(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
 
 /// [`brusselator_2d`]'s initial state: `u = 22·(y(1 − y))^{3/2}`, `v = 27·(x(1 − x))^{3/2}`
 /// at `(x_i, y_j)`, `u_{ij}` at `i + n·j`, `v_{ij}` at `n² + i + n·j`.
+///
+/// ```
+/// // n = 3: x, y ∈ {0, ½, 1}; at (x₁, y₁) = (½, ½) both are 22·(¼)^{3/2} = 2.75, 27/8
+/// let y0 = reckon::problems::brusselator_2d_y0(3);
+/// assert_eq!(y0.len(), 18);
+/// assert!((y0[4] - 2.75).abs() < 1e-15 && (y0[9 + 4] - 27.0 / 8.0).abs() < 1e-15);
+/// assert_eq!(y0[0], 0.0); // u at y = 0
+/// ```
 pub fn brusselator_2d_y0(n: usize) -> nalgebra::DVector<f64> {
     let dx = 1.0 / (n as f64 - 1.0);
     nalgebra::DVector::from_fn(2 * n * n, |k, _| {

@@ -363,3 +363,25 @@ fn auto_method_switches_alike_on_both_paths() {
     let err = (s.last().1 - d.last().1).amax() / d.last().1.amax();
     assert!(err < 1e-10, "{err:e}");
 }
+
+/// `problems::brusselator` is HNW's BRUSS (ODE II §IV.1, (1.6′)): `x_i = i/(N+1)`,
+/// `u_i(0) = 1 + sin(2πx_i)` (the book's amplitude 1), `v_i(0) = 3`, α = 1/50 with the
+/// boundary values `u = 1, v = 3`.
+#[test]
+fn brusselator_1d_is_the_books_setup() {
+    let n = 500;
+    let y0 = brusselator_y0(n);
+    let x = |i: usize| i as f64 / (n as f64 + 1.0);
+    for i in [1usize, 125, 250, 500] {
+        assert!((y0[2 * (i - 1)] - (1.0 + (2.0 * std::f64::consts::PI * x(i)).sin())).abs() < 1e-15);
+        assert_eq!(y0[2 * (i - 1) + 1], 3.0);
+    }
+    let mut f = y0.clone();
+    brusselator(n).rhs(0.0, &y0, &[], &mut f);
+    let (u1, u2) = (y0[0], y0[2]);
+    let alpha = 1.0 / 50.0 * (n as f64 + 1.0).powi(2);
+    let expect = 1.0 + u1 * u1 * 3.0 - 4.0 * u1 + alpha * (1.0 - 2.0 * u1 + u2);
+    // the diffusion terms (≈ 5 000 × 4) cancel to 0.016: rounding is relative to them
+    let scale = alpha * (1.0 + 2.0 * u1.abs() + u2.abs());
+    assert!((f[0] - expect).abs() < 1e-14 * scale, "{} vs {expect}", f[0]);
+}

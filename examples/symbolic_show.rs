@@ -26,6 +26,26 @@ fn main() {
         .unwrap()
         .with_names(&["x", "y", "θ"], &["v", "ω"]);
     println!("{}\n{}\n{}", tr.latex(), tr.mathml(), tr.rust());
+    for (name, c) in [
+        (
+            "unicycle",
+            symbolic::trace(&models::unicycle::model(), 3)
+                .unwrap()
+                .compile_jacobian(),
+        ),
+        (
+            "carlike",
+            symbolic::trace(&models::carlike::model(2.5), 4)
+                .unwrap()
+                .compile_jacobian(),
+        ),
+        (
+            "robertson",
+            symbolic::trace(&problems::robertson(), 3).unwrap().compile_jacobian(),
+        ),
+    ] {
+        println!("{name}: {} instructions, {c:?}", c.instructions());
+    }
     show("stiff cosine", symbolic::trace(&problems::stiff_cosine(), 1));
     if let Some(path) = std::env::args().nth(1) {
         std::fs::write(path, symbolic::trace(&models::unicycle::model(), 3).unwrap().rust()).unwrap();

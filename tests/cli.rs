@@ -954,3 +954,62 @@ fn write_errors_are_reported() {
     let e = file("full-enc.csv", "t,left,right\n0,0,0\n1,1,1\n");
     fails_with(&odo(&e, &["--out", "/dev/full"]), "No space left on device");
 }
+
+#[test]
+fn jacobian_prints_the_traced_model_in_every_format() {
+    let out = reckon(&["jacobian", "--model", "unicycle"]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("∂ẋ/∂θ = −v·sin(θ)\n∂ẏ/∂θ = v·cos(θ)\n"), "{text}");
+    let out = reckon(&[
+        "jacobian",
+        "--model",
+        "carlike",
+        "--wheelbase",
+        "2",
+        "--format",
+        "latex",
+    ]);
+    let latex = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        latex.starts_with("\\frac{\\partial f}{\\partial x} = \\begin{pmatrix}"),
+        "{latex}"
+    );
+    assert!(latex.contains("\\tan \\gamma"), "{latex}");
+    let out = reckon(&["jacobian", "--model", "body3d", "--format", "mathml"]);
+    assert!(out.status.success());
+    let m = String::from_utf8(out.stdout).unwrap();
+    roxmltree::Document::parse(m.trim()).expect("well-formed MathML");
+    let out = reckon(&["jacobian", "--problem", "robertson", "--format", "rust"]);
+    let rust = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        rust.contains("pub fn jacobian(t: f64, x: &[f64], u: &[f64], jac: &mut [f64]) {"),
+        "{rust}"
+    );
+    // JSON with the BRUSS pattern: 8N − 4 non-zeros, CSC arrays
+    let out = reckon(&["jacobian", "--problem", "brusselator:10", "--format", "json"]);
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["pattern"]["nnz"], 76);
+    assert_eq!(v["pattern"]["col_ptr"].as_array().unwrap().len(), 21);
+    assert_eq!(v["jacobian"].as_array().unwrap().len(), 76);
+    assert_eq!(v["jacobian"][0]["row"], 0);
+}
+
+#[test]
+fn jacobian_refuses_bad_arguments_with_one_line() {
+    for args in [
+        &["jacobian"][..],
+        &["jacobian", "--model", "boat"],
+        &["jacobian", "--problem", "brusselator:0"],
+        &["jacobian", "--problem", "brusselator:x"],
+        &["jacobian", "--model", "unicycle", "--wheelbase", "2"],
+        &["jacobian", "--model", "bicycle", "--wheelbase", "-1"],
+        &["jacobian", "--model", "unicycle", "--problem", "robertson"],
+    ] {
+        let out = reckon(args);
+        assert!(!out.status.success(), "{args:?}");
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert!(!err.trim().is_empty() && !err.contains("panicked"), "{args:?}: {err}");
+    }
+}

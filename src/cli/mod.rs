@@ -4,6 +4,7 @@
 
 pub mod csvio;
 pub mod demo;
+pub mod jacobian;
 pub mod odometry;
 pub mod plot;
 pub mod registry;
@@ -48,6 +49,9 @@ pub enum Command {
     Stiffness(studies::StiffnessArgs),
     /// Error against rhs evaluations and wall time over a tolerance sweep.
     WorkPrecision(studies::WorkPrecisionArgs),
+    /// A model's right-hand side and Jacobian, traced from its body and printed
+    /// symbolically (text, LaTeX, MathML, Rust or JSON with the sparsity pattern).
+    Jacobian(jacobian::JacobianArgs),
 }
 
 /// Parse `argv` (program name first) and run the command. `Err` carries clap's own
@@ -80,5 +84,6 @@ pub fn dispatch(args: Args) -> Result<(), Box<dyn std::error::Error>> {
         Command::Convergence(a) => studies::convergence(&a),
         Command::Stiffness(a) => studies::stiffness(&a),
         Command::WorkPrecision(a) => studies::work_precision(&a),
+        Command::Jacobian(a) => jacobian::run(&a),
     }
 }

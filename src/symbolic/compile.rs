@@ -14,7 +14,7 @@ enum Op {
     Mul,
     Div,
     Rem,
-    /// `b` holds the exponent's bits
+    /// `b` is the slot of the exponent (an integer-valued constant)
     Powi,
     /// `b` is the slot of the exponent
     Powf,
@@ -29,20 +29,19 @@ struct Ins {
     b: u32,
 }
 
-/// Where a leaf's value comes from when the program runs.
-#[derive(Debug, Clone, Copy)]
-enum Load {
-    State(u32),
-    Input(u32),
-    Time,
-}
-
 /// A flattened evaluator of some nodes of a graph.
 #[derive(Debug, Clone)]
 pub struct Program {
     /// Slot values with the constants in place (the leaves and results are overwritten).
     template: Vec<f64>,
-    loads: Vec<(u32, Load)>,
+    /// `(slot, state index)` of every state read
+    state_loads: Vec<(u32, u32)>,
+    /// `(slot, input index)` of every input read
+    input_loads: Vec<(u32, u32)>,
+    time_slot: Option<u32>,
+    /// One more than the largest state and input index read.
+    min_x: usize,
+    min_u: usize,
     base: usize,
     ins: Vec<Ins>,
     outputs: Vec<u32>,
@@ -67,7 +66,7 @@ impl Program {
         }
         let mut slot = vec![u32::MAX; len];
         let mut template = Vec::new();
-        let mut loads = Vec::new();
+        let (mut state_loads, mut input_loads, mut time_slot) = (Vec::new(), Vec::new(), None);
         // constants and leaves
         for id in 0..len {
             if !reach[id] {
@@ -82,30 +81,33 @@ impl Program {
                 Node::State(i) => {
                     slot[id] = s;
                     template.push(0.0);
-                    loads.push((s, Load::State(i)));
+                    state_loads.push((s, i));
                 }
                 Node::Input(k) => {
                     slot[id] = s;
                     template.push(0.0);
-                    loads.push((s, Load::Input(k)));
+                    input_loads.push((s, k));
                 }
                 Node::Time => {
                     slot[id] = s;
                     template.push(0.0);
-                    loads.push((s, Load::Time));
+                    time_slot = Some(s);
                 }
                 _ => {}
             }
         }
-        // exponents of powf
-        let mut powf_slot = std::collections::HashMap::new();
-        for id in 0..len {
-            if let (true, Node::Powf(_, p)) = (reach[id], g.node(id as u32)) {
-                powf_slot.entry(p).or_insert_with(|| {
-                    template.push(f64::from_bits(p));
-                    (template.len() - 1) as u32
-                });
-            }
+        // exponents of powi and powf, each in a constant slot
+        let mut exp_slot = std::collections::HashMap::new();
+        for (id, &r) in reach.iter().enumerate() {
+            let bits = match (r, g.node(id as u32)) {
+                (true, Node::Powf(_, p)) => p,
+                (true, Node::Powi(_, n)) => (n as f64).to_bits(),
+                _ => continue,
+            };
+            exp_slot.entry(bits).or_insert_with(|| {
+                template.push(f64::from_bits(bits));
+                (template.len() - 1) as u32
+            });
         }
         let base = template.len();
         let mut ins = Vec::new();
@@ -119,28 +121,37 @@ impl Program {
                 continue;
             }
             let a = slot[args[0] as usize];
-            let b = if k == 2 { slot[args[1] as usize] } else { 0 };
+            // a unary instruction reads its operand twice (every `b` is a slot)
+            let b = if k == 2 { slot[args[1] as usize] } else { a };
             let (op, b) = match node {
-                Node::Neg(_) => (Op::Neg, 0),
+                Node::Neg(_) => (Op::Neg, b),
                 Node::Add(..) => (Op::Add, b),
                 Node::Sub(..) => (Op::Sub, b),
                 Node::Mul(..) => (Op::Mul, b),
                 Node::Div(..) => (Op::Div, b),
                 Node::Rem(..) => (Op::Rem, b),
-                Node::Powi(_, n) => (Op::Powi, n as u32),
-                Node::Powf(_, p) => (Op::Powf, powf_slot[&p]),
+                Node::Powi(_, n) => (Op::Powi, exp_slot[&(n as f64).to_bits()]),
+                Node::Powf(_, p) => (Op::Powf, exp_slot[&p]),
                 Node::Atan2(..) => (Op::Atan2, b),
-                Node::F(f, _) => (Op::F(f), 0),
+                Node::F(f, _) => (Op::F(f), b),
                 Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time => unreachable!(),
             };
-            slot[id] = (base + ins.len()) as u32;
+            let own = (base + ins.len()) as u32;
+            assert!(a < own && b < own, "symbolic: operands must precede their use");
+            slot[id] = own;
             ins.push(Ins { op, a, b });
         }
         template.resize(base + ins.len(), 0.0);
         let outputs = roots.iter().map(|&r| slot[r as usize]).collect();
+        let min_x = state_loads.iter().map(|&(_, i)| i as usize + 1).max().unwrap_or(0);
+        let min_u = input_loads.iter().map(|&(_, k)| k as usize + 1).max().unwrap_or(0);
         Program {
             template,
-            loads,
+            state_loads,
+            input_loads,
+            time_slot,
+            min_x,
+            min_u,
             base,
             ins,
             outputs,
@@ -159,47 +170,58 @@ impl Program {
     }
 
     /// Evaluate every slot at `(t, x, u)` into `vals` (from [`scratch`](Self::scratch)).
-    /// Missing inputs read as NaN.
+    /// Missing states or inputs read as NaN.
+    #[inline]
     pub fn run(&self, t: f64, x: &[f64], u: &[f64], vals: &mut [f64]) {
         assert_eq!(
             vals.len(),
             self.template.len(),
             "Program::run: scratch of the wrong size"
         );
-        for &(s, l) in &self.loads {
-            vals[s as usize] = match l {
-                Load::State(i) => x.get(i as usize).copied().unwrap_or(f64::NAN),
-                Load::Input(k) => u.get(k as usize).copied().unwrap_or(f64::NAN),
-                Load::Time => t,
-            };
+        if x.len() >= self.min_x && u.len() >= self.min_u {
+            for &(s, i) in &self.state_loads {
+                // SAFETY: every state index is below `min_x ≤ x.len()`, every slot below
+                // `base ≤ vals.len()` (checked in `new`)
+                unsafe { *vals.get_unchecked_mut(s as usize) = *x.get_unchecked(i as usize) };
+            }
+            for &(s, k) in &self.input_loads {
+                vals[s as usize] = u[k as usize];
+            }
+        } else {
+            for &(s, i) in &self.state_loads {
+                vals[s as usize] = x.get(i as usize).copied().unwrap_or(f64::NAN);
+            }
+            for &(s, k) in &self.input_loads {
+                vals[s as usize] = u.get(k as usize).copied().unwrap_or(f64::NAN);
+            }
         }
-        let (pre, out) = vals.split_at_mut(self.base);
-        for (k, ins) in self.ins.iter().enumerate() {
-            let get = |s: u32, pre: &[f64], out: &[f64]| {
-                let s = s as usize;
-                if s < self.base { pre[s] } else { out[s - self.base] }
-            };
-            let a = get(ins.a, pre, out);
-            let v = match ins.op {
-                Op::Neg => -a,
-                Op::Add => a + get(ins.b, pre, out),
-                Op::Sub => a - get(ins.b, pre, out),
-                Op::Mul => a * get(ins.b, pre, out),
-                Op::Div => a / get(ins.b, pre, out),
-                Op::Rem => a % get(ins.b, pre, out),
-                Op::Powi => a.powi(ins.b as i32),
-                Op::Powf => a.powf(get(ins.b, pre, out)),
-                Op::Atan2 => a.atan2(get(ins.b, pre, out)),
-                Op::F(f) => f.eval(a),
-            };
-            out[k] = v;
+        if let Some(s) = self.time_slot {
+            vals[s as usize] = t;
         }
-    }
-
-    /// The value of output `k` after [`run`](Self::run).
-    #[inline]
-    pub fn output(&self, vals: &[f64], k: usize) -> f64 {
-        vals[self.outputs[k] as usize]
+        let p = vals.as_mut_ptr();
+        // SAFETY: `new` gives every instruction `k` operands `a`, `b` below its own slot
+        // `base + k` (ids are a topological order), and `vals` has `base + ins.len()`
+        // slots (asserted above), so every pointer stays in `vals`.
+        unsafe {
+            let mut q = p.add(self.base);
+            for ins in &self.ins {
+                let a = *p.add(ins.a as usize);
+                let b = *p.add(ins.b as usize);
+                *q = match ins.op {
+                    Op::Neg => -a,
+                    Op::Add => a + b,
+                    Op::Sub => a - b,
+                    Op::Mul => a * b,
+                    Op::Div => a / b,
+                    Op::Rem => a % b,
+                    Op::Powi => a.powi(b as i32),
+                    Op::Powf => a.powf(b),
+                    Op::Atan2 => a.atan2(b),
+                    Op::F(f) => f.eval(a),
+                };
+                q = q.add(1);
+            }
+        }
     }
 }
 
@@ -222,12 +244,25 @@ pub struct CompiledJacobian {
     pattern: Pattern,
     program: Program,
     vals: Vec<f64>,
+    /// `(slot, i + n·j)` of every non-zero, for the dense matrix.
+    dense: Vec<(u32, usize)>,
 }
 
 impl CompiledJacobian {
     pub(crate) fn new(pattern: Pattern, program: Program) -> Self {
         let vals = program.scratch();
-        CompiledJacobian { pattern, program, vals }
+        let n = pattern.n();
+        let dense = pattern
+            .entries()
+            .enumerate()
+            .map(|(k, (i, j))| (program.outputs[k], i + n * j))
+            .collect();
+        CompiledJacobian {
+            pattern,
+            program,
+            vals,
+            dense,
+        }
     }
 
     /// The instructions one evaluation runs.
@@ -241,11 +276,10 @@ impl CompiledJacobian {
         assert_eq!(jac.len(), n * n, "eval_dense: jac must hold n² values");
         self.program.run(t, x, u, &mut self.vals);
         jac.fill(0.0);
-        let (cp, ri) = (self.pattern.col_ptr(), self.pattern.row_idx());
-        for j in 0..n {
-            for k in cp[j]..cp[j + 1] {
-                jac[ri[k] + n * j] = self.program.output(&self.vals, k);
-            }
+        for &(s, d) in &self.dense {
+            // SAFETY: `d = i + n·j < n² = jac.len()` (asserted above) and `s` is a slot of
+            // the program, below `vals.len()`
+            unsafe { *jac.get_unchecked_mut(d) = *self.vals.get_unchecked(s as usize) };
         }
     }
 }
@@ -256,8 +290,8 @@ impl SparseJacobian for CompiledJacobian {
     }
     fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) {
         self.program.run(t, x, u, &mut self.vals);
-        for (k, v) in values.iter_mut().enumerate() {
-            *v = self.program.output(&self.vals, k);
+        for (v, &s) in values.iter_mut().zip(&self.program.outputs) {
+            *v = self.vals[s as usize];
         }
     }
 }

@@ -6,6 +6,50 @@
 //! order is a topological order (operands before their users).
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// A multiply–rotate hasher (the Firefox/rustc "Fx" hash) for node keys: a few
+/// instructions per word where SipHash spends dozens; the keys are our own small
+/// integers, so its weaker mixing costs nothing here.
+#[derive(Default, Clone, Copy)]
+pub(crate) struct FxHasher(u64);
+
+impl Hasher for FxHasher {
+    #[inline]
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut w = [0u8; 8];
+            w[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(w));
+        }
+    }
+    #[inline]
+    fn write_u8(&mut self, i: u8) {
+        self.write_u64(i as u64);
+    }
+    #[inline]
+    fn write_u32(&mut self, i: u32) {
+        self.write_u64(i as u64);
+    }
+    #[inline]
+    fn write_i32(&mut self, i: i32) {
+        self.write_u64(i as u32 as u64);
+    }
+    #[inline]
+    fn write_u64(&mut self, i: u64) {
+        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    #[inline]
+    fn write_usize(&mut self, i: usize) {
+        self.write_u64(i as u64);
+    }
+    #[inline]
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+type FxMap<K, V> = HashMap<K, V, BuildHasherDefault<FxHasher>>;
 
 /// Elementary functions of one argument a traced body may call.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -56,6 +100,7 @@ pub enum Func {
 
 impl Func {
     /// The function's value at `a`, as `f64`'s own method computes it.
+    #[inline]
     pub fn eval(self, a: f64) -> f64 {
         match self {
             Func::Sin => a.sin(),
@@ -176,7 +221,7 @@ impl Node {
 #[derive(Debug, Default, Clone)]
 pub struct Graph {
     nodes: Vec<Node>,
-    ids: HashMap<Node, u32>,
+    ids: FxMap<Node, u32>,
 }
 
 impl Graph {
@@ -257,8 +302,8 @@ impl Graph {
     pub fn add(&mut self, a: u32, b: u32) -> u32 {
         match (self.constant(a), self.constant(b)) {
             (Some(x), Some(y)) => return self.num(x + y),
-            (Some(x), None) if x == 0.0 => return b,
-            (None, Some(y)) if y == 0.0 => return a,
+            (Some(0.0), None) => return b,
+            (None, Some(0.0)) => return a,
             _ => {}
         }
         if let Node::Neg(c) = self.node(b) {
@@ -284,8 +329,8 @@ impl Graph {
         }
         match (self.constant(a), self.constant(b)) {
             (Some(x), Some(y)) => return self.num(x - y),
-            (None, Some(y)) if y == 0.0 => return a,
-            (Some(x), None) if x == 0.0 => return self.neg(b),
+            (None, Some(0.0)) => return a,
+            (Some(0.0), None) => return self.neg(b),
             // a − (−c) = a + c exactly
             (None, Some(y)) if y < 0.0 => {
                 let c = self.num(-y);
@@ -304,10 +349,10 @@ impl Graph {
         match (self.constant(a), self.constant(b)) {
             (Some(x), Some(y)) => return self.num(x * y),
             (Some(x), None) | (None, Some(x)) if x == 0.0 => return self.num(0.0),
-            (Some(x), None) if x == 1.0 => return b,
-            (None, Some(y)) if y == 1.0 => return a,
-            (Some(x), None) if x == -1.0 => return self.neg(b),
-            (None, Some(y)) if y == -1.0 => return self.neg(a),
+            (Some(1.0), None) => return b,
+            (None, Some(1.0)) => return a,
+            (Some(-1.0), None) => return self.neg(b),
+            (None, Some(-1.0)) => return self.neg(a),
             _ => {}
         }
         // pull negations out: (−a)·b = −(a·b), exactly in IEEE arithmetic
@@ -337,9 +382,9 @@ impl Graph {
     pub fn div(&mut self, a: u32, b: u32) -> u32 {
         match (self.constant(a), self.constant(b)) {
             (Some(x), Some(y)) => return self.num(x / y),
-            (Some(x), None) if x == 0.0 => return self.num(0.0),
-            (None, Some(y)) if y == 1.0 => return a,
-            (None, Some(y)) if y == -1.0 => return self.neg(a),
+            (Some(0.0), None) => return self.num(0.0),
+            (None, Some(1.0)) => return a,
+            (None, Some(-1.0)) => return self.neg(a),
             _ => {}
         }
         if a == b {
@@ -517,9 +562,10 @@ impl Graph {
             }
             Func::Sinh => self.func(Func::Cosh, a),
             Func::Cosh => self.func(Func::Sinh, a),
+            // 1/cosh²a: the form 1 − tanh²a loses every digit where tanh a → ±1
             Func::Tanh => {
-                let t2 = self.powi(fa, 2);
-                self.sub(one, t2)
+                let c = self.func(Func::Cosh, a);
+                self.powi(c, -2)
             }
             Func::Asinh | Func::Acosh => {
                 let a2 = self.powi(a, 2);

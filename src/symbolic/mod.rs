@@ -187,7 +187,7 @@ where
 /// let f = model!(|_, x: [S; 2]| vector![x[1].clone(), (1.0 - x[0] * x[0]) * x[1] - x[0]]);
 /// let tr = symbolic::trace(&f, 2).unwrap();
 /// assert_eq!(tr.rhs(1).to_string(), "x₁·(1 − x₀·x₀) − x₀");
-/// assert_eq!(tr.jacobian_entry(1, 0).unwrap().to_string(), "−x₁·2·x₀ − 1");
+/// assert_eq!(tr.jacobian_entry(1, 0).unwrap().to_string(), "−1 − x₁·2·x₀");
 /// assert_eq!(tr.jacobian_entry(0, 0), None); // a structural zero
 /// ```
 #[derive(Clone)]
@@ -319,7 +319,20 @@ impl Traced {
                 }
             }
         }
-        jx.sort_unstable_by_key(|&(i, j, _)| (j, i));
+        // column order (rows ascending within a column, as generated): a counting sort
+        let mut count = vec![0usize; n + 1];
+        for &(_, j, _) in &jx {
+            count[j + 1] += 1;
+        }
+        for j in 0..n {
+            count[j + 1] += count[j];
+        }
+        let mut sorted = vec![(0, 0, 0); jx.len()];
+        for e in jx {
+            sorted[count[e.1]] = e;
+            count[e.1] += 1;
+        }
+        let jx = sorted;
         Traced {
             g,
             n,
@@ -398,8 +411,15 @@ impl Traced {
 
     /// The sparsity pattern of `∂f/∂x`: the entries that are not structurally zero.
     pub fn pattern(&self) -> Pattern {
-        let e: Vec<(usize, usize)> = self.jx.iter().map(|&(i, j, _)| (i, j)).collect();
-        Pattern::from_entries(self.n, &e)
+        let mut col_ptr = vec![0; self.n + 1];
+        for &(_, j, _) in &self.jx {
+            col_ptr[j + 1] += 1;
+        }
+        for j in 0..self.n {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        let rows = self.jx.iter().map(|e| e.0).collect();
+        Pattern::from_csc(self.n, col_ptr, rows).expect("the trace's entries are sorted and unique")
     }
 
     /// `∂f/∂x` compiled into an instruction list over `f64` (see [`CompiledJacobian`]).

@@ -23,6 +23,7 @@ use std::path::Path;
 type Res<T = ()> = Result<T, Box<dyn Error>>;
 
 mod pitfalls;
+mod symbolic;
 use pitfalls::pitfalls;
 
 struct Report {
@@ -668,6 +669,8 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     r.end();
 
     stiff_work_precision(&mut r, dir, fast)?;
+
+    symbolic::section(&mut r, dir)?;
 
     r.section(
         "Where textbook versions go wrong",

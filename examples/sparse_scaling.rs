@@ -19,12 +19,15 @@
 //!   [`SparseLu`](reckon::sparse::SparseLu), BRUSS pattern by size and random patterns by
 //!   density (for `AUTO_MIN_STATES`, `AUTO_MAX_DENSITY`).
 //!
-//! Measured (2 shared cores, loaded; 2 Dec 2026): `scaling`, hand J, 10³ → 10⁶ states:
-//! ImplicitEuler 70–118 → 124–153 ns/step/state, Bdf 119–156 → 150–218, peak RSS at 10⁶
-//! 610–760 MiB (traced: 1.7–2.0 GiB, the trace of the body at 10⁶ states alone 1.7 GiB
-//! and 15 s). `versus` at 5 digits: Bdf dense/sparse 59–94×; diffsol's sparse BDF
-//! 0.9–1.6× reckon's time (hand or coloured J), 0.7× with the traced J (its trace and
-//! compile, 7 ms, are in every solve).
+//! Measured (2 shared cores, 2 Dec 2026, after merging the faster tracer of main e7af194):
+//! `scaling`, 10³ → 10⁶ states, ns/step/state: ImplicitEuler hand J 70 → 119 (1.7×),
+//! coloured 91 → 133 (1.45×); Bdf hand 95 → 163 (1.7×), coloured 108 → 159 (1.47×): the
+//! growth is the working set leaving the caches (and the one-off COLAMD order and first
+//! touch of ~600 MiB at 10⁶). Peak RSS at 10⁶: 617–761 MiB (traced: 1.7–1.8 GiB, of
+//! which the trace of the body alone is 1.7 GiB and 8.6 s). `versus` at 5 digits: Bdf
+//! dense/sparse 56–94×; diffsol's sparse BDF takes 0.9–2.8× reckon's sparse time (runs on
+//! a loaded machine vary that much), and the traced J's trace + compile (3 ms) is in
+//! every reckon solve.
 
 #[path = "../tests/common/bruss.rs"]
 mod bruss;

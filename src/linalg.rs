@@ -1,8 +1,12 @@
 //! LU factorisation of the Newton iteration matrix `M = I − h·J`, chosen by the
 //! state dimension: nalgebra's stack-allocated LU for fixed sizes (`Const<N>`),
-//! faer's partial-pivoting LU for dynamic sizes (`Dyn`).
+//! faer's partial-pivoting LU for dynamic sizes (`Dyn`); and the iteration matrix that
+//! every implicit method shares, dense or sparse ([`crate::sparse`]).
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, OVector, SMatrix, SVector};
+
+mod iteration;
+pub(crate) use iteration::IterationMatrix;
 
 /// A factorisation of a square matrix that can solve `M·y = b` in place.
 pub trait Lu<D: nalgebra::Dim>: Sized

@@ -53,6 +53,51 @@ pub struct Options {
     pub max_step_failures: usize,
     /// What [`Solution`](crate::Solution) keeps of the run (default: every step).
     pub save: Save,
+    /// How the implicit methods solve with `I − c·J` (default [`LinearSolver::Auto`]).
+    pub linear_solver: LinearSolver,
+}
+
+/// The linear algebra of the implicit methods ([`ImplicitEuler`](crate::methods::ImplicitEuler),
+/// [`Bdf`](crate::methods::Bdf), [`Rodas5P`](crate::methods::Rodas5P), [`Auto`](crate::methods::Auto)'s
+/// BDF): each factors `M = a·I + b·J` (`I − c·J` for Newton, `I/(hγ) − J` for Rodas5P)
+/// and solves with it.
+///
+/// - `Dense`: `J` from [`System::jacobian`](crate::System::jacobian) into an `n × n`
+///   matrix, nalgebra's stack LU for fixed sizes, faer's partial-pivoting LU for `DVector`.
+/// - `Sparse`: `J`'s non-zeros from the model's
+///   [`System::sparse_jacobian`](crate::System::sparse_jacobian), faer's sparse LU of `M`
+///   (pattern `J ∪ I`, analysed once; [`SparseLu`](crate::sparse::SparseLu)); no `n × n`
+///   storage. A model without a sparse Jacobian is refused
+///   ([`Error::InvalidInput`](crate::Error::InvalidInput) `"linear_solver"`) when an
+///   implicit method starts.
+/// - `Auto` (default): sparse when the model offers a sparse Jacobian, the state has at
+///   least [`AUTO_MIN_STATES`](crate::sparse::AUTO_MIN_STATES) = 64 components and `J`'s
+///   density `nnz/n²` is at most [`AUTO_MAX_DENSITY`](crate::sparse::AUTO_MAX_DENSITY) = 0.1;
+///   dense otherwise (the model is not even asked below 64 states).
+///
+/// Explicit methods need no `J` and ignore the choice.
+///
+/// ```
+/// use reckon::{model, methods::ImplicitEuler, options::LinearSolver, Error, Options, Problem};
+/// use nalgebra::vector;
+/// // a body that branches on the state cannot be traced: no sparse Jacobian
+/// let f = model!(|_t, x: [S; 1]| vector![if x[0] > S::from(2.0) { S::from(2.0) } else { -x[0].clone() }]);
+/// let p = Problem::new(&f, vector![1.0], (0.0, 1.0));
+/// assert_eq!(Options::default().linear_solver, LinearSolver::Auto);
+/// assert!(p.solve(ImplicitEuler::default(), &Options::default()).is_ok()); // dense
+/// let forced = Options::default().linear_solver(LinearSolver::Sparse);
+/// let e = p.solve(ImplicitEuler::default(), &forced).unwrap_err();
+/// assert!(matches!(e, Error::InvalidInput { what: "linear_solver", .. }));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LinearSolver {
+    /// Sparse for large models with a sparse Jacobian, dense otherwise.
+    #[default]
+    Auto,
+    /// Always the dense `n × n` Jacobian and LU.
+    Dense,
+    /// Always the model's sparse Jacobian and faer's sparse LU.
+    Sparse,
 }
 
 /// What a [`Solution`](crate::Solution) keeps: the states at `t0` and at every accepted
@@ -103,6 +148,7 @@ impl Default for Options {
             stiffness_check: Some(1000),
             max_step_failures: 10,
             save: Save::Steps,
+            linear_solver: LinearSolver::Auto,
         }
     }
 }
@@ -156,6 +202,11 @@ impl Options {
     /// Choose what the solution keeps ([`Save`]).
     pub fn save(mut self, save: Save) -> Self {
         self.save = save;
+        self
+    }
+    /// Choose the implicit methods' linear algebra ([`LinearSolver`]).
+    pub fn linear_solver(mut self, l: LinearSolver) -> Self {
+        self.linear_solver = l;
         self
     }
     /// Stiffness test interval (`None`: off).

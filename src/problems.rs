@@ -190,7 +190,10 @@ pub fn brusselator(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
     })
 }
 
-/// Brusselator initial state: `u_i = 1 + sin(2πx_i)`, `v_i = 3`, `x_i = i/(n+1)`.
+/// Brusselator initial state: `u_i = 1 + sin(2πx_i)`, `v_i = 3`, `x_i = i/(n+1)`, as
+/// HNW ODE II §IV.1 (1.6′) states it (and DiffEqProblemLibrary's `prob_ode_brusselator_1d`
+/// copies it, "Page 6"), on its span `t ∈ [0, 10]`. Some widely copied reference values
+/// use the amplitude ½ instead; reckon keeps the book's.
 pub fn brusselator_y0(n: usize) -> nalgebra::DVector<f64> {
     nalgebra::DVector::from_fn(2 * n, |k, _| {
         let x = (k / 2 + 1) as f64 / (n as f64 + 1.0);
@@ -198,6 +201,83 @@ pub fn brusselator_y0(n: usize) -> nalgebra::DVector<f64> {
             1.0 + (2.0 * std::f64::consts::PI * x).sin()
         } else {
             3.0
+        }
+    })
+}
+
+/// The 2-D Brusselator of the DifferentialEquations.jl benchmarks on an `n × n` periodic
+/// grid (`2n²` states): with `x_i = i/(n−1)`, `y_j = j/(n−1)` (`i, j = 0..n`, Julia's
+/// `range(0, 1, length = n)`, so `x = 0` and `x = 1` are distinct points joined by the
+/// periodic wrap), `Δ = 1/(n−1)` and `A = 3.4`, `B = 1`, `α = 10`,
+///
+/// `u' = B + u²v − (A + 1)u + (α/Δ²)(u_{i−1,j} + u_{i+1,j} + u_{i,j−1} + u_{i,j+1} − 4u) + f(x, y, t)`,
+/// `v' = A·u − u²v + (α/Δ²)(v_{i−1,j} + v_{i+1,j} + v_{i,j−1} + v_{i,j+1} − 4v)`,
+///
+/// indices modulo `n`, forcing `f = 5` where `(x − 0.3)² + (y − 0.6)² ≤ 0.1²` and
+/// `t ≥ 1.1` (0 elsewhere); span `[0, 11.5]`, initial state [`brusselator_2d_y0`]. The state
+/// is Julia's `vec` of an `n × n × 2` array: `u_{ij}` at `i + n·j`, `v_{ij}` at
+/// `n² + i + n·j`. The forcing switches on at `t = 1.1`: give it as a breakpoint
+/// (`Options::breakpoints([1.1])`) so that no step straddles it.
+///
+/// Source: SciMLBenchmarks.jl `benchmarks/StiffODE/Bruss.jmd` (`brusselator_2d_loop`,
+/// `p = (3.4, 1.0, 10.0, step(xyd))`, span `(0, 11.5)`), the same as DiffEqDocs' "Solving
+/// Large Stiff Equations" and DiffEqGPU.jl `docs/src/examples/bruss.md`, whose printed
+/// `f(u₀, 0)` values at `n = 32` the tests check.
+///
+/// ```
+/// use reckon::{problems::{brusselator_2d, brusselator_2d_y0}, System};
+/// let (f, y0) = (brusselator_2d(32), brusselator_2d_y0(32));
+/// let mut du = y0.clone();
+/// f.rhs(0.0, &y0, &[], &mut du);
+/// assert!((du[33] - 802.9807693762164).abs() < 1e-9); // DiffEqGPU.jl: du[34] (1-based)
+/// f.rhs(1.3, &y0, &[], &mut du);
+/// assert!((du[520] - -318.1677459142322).abs() < 1e-9); // inside the forcing disc: +5
+/// ```
+pub fn brusselator_2d(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
+    let dx = 1.0 / (n as f64 - 1.0);
+    let alpha = 10.0 / (dx * dx);
+    crate::model!(|t, y: [S; Dyn]| {
+        let nn = n * n;
+        nalgebra::DVector::from_fn(y.len(), |k, _| {
+            let (s, ij) = (k / nn, k % nn);
+            let (i, j) = (ij % n, ij / n);
+            let at = |i: usize, j: usize| y[i + n * j + nn * s].clone();
+            let (ip, im) = ((i + 1) % n, (i + n - 1) % n);
+            let (jp, jm) = ((j + 1) % n, (j + n - 1) % n);
+            let lap = (at(im, j) + at(ip, j) + at(i, jp) + at(i, jm) - at(i, j) * 4.0) * alpha;
+            let (u, v) = (y[ij].clone(), y[nn + ij].clone());
+            let uuv = u.clone() * u.clone() * v;
+            if s == 0 {
+                let (x, yy) = (i as f64 * dx, j as f64 * dx);
+                let inside = (x - 0.3) * (x - 0.3) + (yy - 0.6) * (yy - 0.6) <= 0.1 * 0.1;
+                let forcing = if inside && t >= 1.1 { 5.0 } else { 0.0 };
+                lap + uuv - u * 4.4 + 1.0 + forcing
+            } else {
+                lap + u * 3.4 - uuv
+            }
+        })
+    })
+}
+
+/// [`brusselator_2d`]'s initial state: `u = 22·(y(1 − y))^{3/2}`, `v = 27·(x(1 − x))^{3/2}`
+/// at `(x_i, y_j)`, `u_{ij}` at `i + n·j`, `v_{ij}` at `n² + i + n·j`.
+///
+/// ```
+/// // n = 3: x, y ∈ {0, ½, 1}; at (x₁, y₁) = (½, ½) both are 22·(¼)^{3/2} = 2.75, 27/8
+/// let y0 = reckon::problems::brusselator_2d_y0(3);
+/// assert_eq!(y0.len(), 18);
+/// assert!((y0[4] - 2.75).abs() < 1e-15 && (y0[9 + 4] - 27.0 / 8.0).abs() < 1e-15);
+/// assert_eq!(y0[0], 0.0); // u at y = 0
+/// ```
+pub fn brusselator_2d_y0(n: usize) -> nalgebra::DVector<f64> {
+    let dx = 1.0 / (n as f64 - 1.0);
+    nalgebra::DVector::from_fn(2 * n * n, |k, _| {
+        let (s, ij) = (k / (n * n), k % (n * n));
+        let (x, y) = ((ij % n) as f64 * dx, (ij / n) as f64 * dx);
+        if s == 0 {
+            22.0 * (y * (1.0 - y)).powf(1.5)
+        } else {
+            27.0 * (x * (1.0 - x)).powf(1.5)
         }
     })
 }

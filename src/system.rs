@@ -681,6 +681,8 @@ where
     /// A wrong-length result from an unchecked call, reported by the driver when it
     /// finds the NaN left in its place.
     pub(crate) fault: Option<Error>,
+    /// The linear-algebra choice and the model's sparse Jacobian (`crate::sparse`).
+    pub(crate) sparse: crate::sparse::Slot<'a>,
     _dim: PhantomData<D>,
 }
 
@@ -694,8 +696,14 @@ where
             u,
             stats: Stats::default(),
             fault: None,
+            sparse: Default::default(),
             _dim: PhantomData,
         }
+    }
+
+    /// The model.
+    pub(crate) fn system(&self) -> &'a S {
+        self.sys
     }
 
     /// `dx ← f(t, x)`, counted but not checked: for explicit kernels whose step result

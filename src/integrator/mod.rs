@@ -166,6 +166,7 @@ where
         stops.dedup();
 
         let mut f = Eval::new(&problem.system, u);
+        f.sparse.choice = opts.linear_solver;
         method.init(&mut f, t0, x0)?;
         let (adaptive, fixed_h) = match (opts.step, method.error_order()) {
             (StepSize::Fixed(h), _) => (false, h),

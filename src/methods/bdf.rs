@@ -336,7 +336,7 @@ where
             restart = false;
         }
         self.st = Some(State {
-            newton: Newton::new(x0),
+            newton: Newton::new(f, x0)?,
             tmp: vec![zero.clone(); MAX_ORDER + 1],
             diffs,
             order,

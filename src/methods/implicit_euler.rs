@@ -4,7 +4,7 @@ use super::newton::{self, Goal, Newton};
 use super::{Method, Outcome};
 use crate::control::{Controller, Weights};
 use crate::error::Result;
-use crate::linalg::{Lu, LuDim};
+use crate::linalg::LuDim;
 use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
@@ -118,9 +118,9 @@ where
     fn controller(&self) -> Controller {
         Controller::new(1, 0.0).with_hold(1.0, 1.2)
     }
-    fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, x0: &OVector<f64, D>) -> Result<()> {
+    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, _t0: f64, x0: &OVector<f64, D>) -> Result<()> {
         self.solver = Some(Work {
-            newton: Newton::new(x0),
+            newton: Newton::new(f, x0)?,
             y_p: x0.clone(),
             psi: x0.clone(),
             d: x0.clone(),
@@ -172,9 +172,7 @@ where
         for i in 0..x.len() {
             s.fx[i] = 0.5 * (x_new[i] - x[i] - h * s.fx[i]);
         }
-        if let Some((lu, _)) = s.newton.lu() {
-            lu.solve_in_place(&mut s.fx);
-        }
+        s.newton.solve_lu(&mut s.fx);
         Ok(Outcome::Done {
             err: w.norm(&s.fx, x, x_new),
         })

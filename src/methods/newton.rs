@@ -17,24 +17,23 @@
 use super::Failure;
 use crate::control::Weights;
 use crate::error::Result;
-use crate::linalg::{Lu, LuDim};
+use crate::linalg::{IterationMatrix, LuDim};
 use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, OMatrix, OVector};
+use nalgebra::{DefaultAllocator, OVector};
 
 /// The LU of `I − c·J` is refactored when `|c/c_LU − 1|` exceeds this (0.3, CVODE's
 /// `DGMAX`); below it the stale LU only slows Newton slightly, and the correction
 /// scaling `2/(1 + c/c_LU)` makes up most of that.
 pub const LU_REUSE: f64 = 0.3;
 
-/// Iteration matrix, its LU and the Jacobian it was built from, plus work vectors.
+/// Iteration matrix, its LU and the Jacobian it was built from (dense or sparse, as the
+/// run chose: [`Options::linear_solver`](crate::Options::linear_solver)), plus work vectors.
 pub(crate) struct Newton<D: LuDim>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    j: OMatrix<f64, D, D>,
-    m: OMatrix<f64, D, D>,
-    lu: Option<D::Lu>,
+    lin: IterationMatrix<D>,
     c_lu: f64,
     /// `J` was evaluated for the current step (a failure then means: shrink `h`).
     j_current: bool,
@@ -58,36 +57,28 @@ impl<D: LuDim> Newton<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    /// Work space for states shaped like `x0`.
-    pub fn new(x0: &OVector<f64, D>) -> Self {
-        let (r, _) = x0.shape_generic();
-        Newton {
-            j: OMatrix::<f64, D, D>::zeros_generic(r, r),
-            m: OMatrix::<f64, D, D>::zeros_generic(r, r),
-            lu: None,
+    /// Work space for states shaped like `x0`, on the linear algebra the run chose.
+    pub fn new<S: System<D>>(f: &mut Eval<'_, D, S>, x0: &OVector<f64, D>) -> Result<Self> {
+        Ok(Newton {
+            lin: IterationMatrix::new(f, x0)?,
             c_lu: f64::NAN,
             j_current: false,
             j_valid: false,
             fx: x0.clone(),
             dy: x0.clone(),
             iterations: 0,
-        }
+        })
     }
 
     /// `‖J‖∞` of the Jacobian in use, if there is one for this interval.
     pub fn jacobian_norm(&self) -> Option<f64> {
-        self.j_valid.then(|| {
-            self.j
-                .row_iter()
-                .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
-                .fold(0.0, f64::max)
-        })
+        self.j_valid.then(|| self.lin.norm_inf())
     }
 
     /// The inputs jumped: the Jacobian belongs to the old interval.
     pub fn invalidate(&mut self) {
         self.j_valid = false;
-        self.lu = None;
+        self.lin.drop_lu();
     }
 
     /// Evaluate `J` at `(t, x)` unless a valid one is at hand.
@@ -99,33 +90,28 @@ where
     }
 
     fn refresh<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t: f64, x: &OVector<f64, D>) -> Result<()> {
-        f.jacobian(t, x, &mut self.j)?;
+        self.lin.evaluate(f, t, x)?;
         self.j_valid = true;
         self.j_current = true;
-        self.lu = None;
         Ok(())
     }
 
     /// The LU of `I − c·J`, refactored when `c` moved more than [`LU_REUSE`]; `None`
     /// when singular.
     fn factor(&mut self, stats: &mut crate::Stats, c: f64) -> bool {
-        let fresh = self.lu.is_some() && ((c - self.c_lu) / self.c_lu).abs() <= LU_REUSE;
+        let fresh = self.lin.is_factored() && ((c - self.c_lu) / self.c_lu).abs() <= LU_REUSE;
         if !fresh {
-            self.m.copy_from(&self.j);
-            self.m *= -c;
-            for i in 0..self.m.nrows() {
-                self.m[(i, i)] += 1.0;
-            }
             stats.lu_decompositions += 1;
-            self.lu = D::Lu::factor(&self.m);
             self.c_lu = c;
+            return self.lin.factor(1.0, -c);
         }
-        self.lu.is_some()
+        true
     }
 
-    /// The current LU (after a successful [`solve`](Self::solve)) and the `c` it was factored at.
-    pub fn lu(&self) -> Option<(&D::Lu, f64)> {
-        self.lu.as_ref().map(|lu| (lu, self.c_lu))
+    /// `v ← M⁻¹·v` with the current LU (after a successful [`solve`](Self::solve));
+    /// `false` (v untouched) when there is none.
+    pub fn solve_lu(&mut self, v: &mut OVector<f64, D>) -> bool {
+        self.lin.solve(v)
     }
 
     /// Solve for `d` (into `d`, with `y = y_p + d`), refreshing `J` once when the stale one
@@ -153,12 +139,11 @@ where
                 continue;
             }
             let scale_c = 2.0 / (1.0 + c / self.c_lu);
-            let Some(lu) = self.lu.as_ref() else { continue };
             let work = Work {
                 fx: &mut self.fx,
                 dy: &mut self.dy,
             };
-            match iterate(f, lu, t1, y_p, c, psi, y, d, w, goal, scale_c, work)? {
+            match iterate(f, &mut self.lin, t1, y_p, c, psi, y, d, w, goal, scale_c, work)? {
                 Iterated::Converged(k) => {
                     self.iterations = k;
                     self.j_current = false;
@@ -217,9 +202,9 @@ where
 /// (the predictor included) fails the attempt, so the step is retried smaller; the
 /// methods check `f` where they start, so a model that is NaN there is still reported.
 #[allow(clippy::too_many_arguments)]
-fn iterate<D: nalgebra::Dim, S: System<D>, L: Lu<D>>(
+fn iterate<D: LuDim, S: System<D>>(
     f: &mut Eval<'_, D, S>,
-    lu: &L,
+    lu: &mut IterationMatrix<D>,
     t1: f64,
     y_p: &OVector<f64, D>,
     c: f64,
@@ -264,7 +249,7 @@ where
         for i in 0..n {
             dy[i] = c * fx[i] - psi[i] - d[i];
         }
-        lu.solve_in_place(dy);
+        lu.solve(dy);
         if s != 1.0 {
             *dy *= s;
         }

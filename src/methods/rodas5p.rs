@@ -4,10 +4,10 @@
 use super::{Failure, Method, Outcome};
 use crate::control::{Controller, Weights};
 use crate::error::Result;
-use crate::linalg::{Lu, LuDim};
+use crate::linalg::{IterationMatrix, LuDim};
 use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, OMatrix, OVector};
+use nalgebra::{DefaultAllocator, OVector};
 
 /// Number of stages.
 pub const STAGES: usize = 8;
@@ -180,11 +180,11 @@ where
     u: OVector<f64, D>,
     fx: OVector<f64, D>,
     dfdt: OVector<f64, D>,
-    /// `(t, x)` at which `fx`, `dfdt` and `j` were evaluated (reused after a rejection).
+    /// `(t, x)` at which `fx`, `dfdt` and `J` were evaluated (reused after a rejection).
     x_at: OVector<f64, D>,
     t_at: f64,
-    j: OMatrix<f64, D, D>,
-    m: OMatrix<f64, D, D>,
+    /// `J` and the LU of `W = I/(hγ) − J`, dense or sparse as the run chose.
+    lin: IterationMatrix<D>,
 }
 
 /// Rodas5P (Steinebach 2023), a linearly implicit Runge–Kutta (Rosenbrock) method:
@@ -229,7 +229,6 @@ where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
     work: Option<Work<D>>,
-    lu: Option<D::Lu>,
 }
 
 impl<D: LuDim> Default for Rodas5P<D>
@@ -237,7 +236,7 @@ where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
     fn default() -> Self {
-        Rodas5P { work: None, lu: None }
+        Rodas5P { work: None }
     }
 }
 
@@ -257,8 +256,7 @@ where
     fn controller(&self) -> Controller {
         Controller::new(4, 0.04)
     }
-    fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, x0: &OVector<f64, D>) -> Result<()> {
-        let (r, _) = x0.shape_generic();
+    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, _t0: f64, x0: &OVector<f64, D>) -> Result<()> {
         self.work = Some(Work {
             k: std::array::from_fn(|_| x0.clone()),
             u: x0.clone(),
@@ -266,10 +264,8 @@ where
             dfdt: x0.clone(),
             x_at: x0.clone(),
             t_at: f64::NAN,
-            j: OMatrix::<f64, D, D>::zeros_generic(r, r),
-            m: OMatrix::<f64, D, D>::zeros_generic(r, r),
+            lin: IterationMatrix::new(f, x0)?,
         });
-        self.lu = None;
         Ok(())
     }
     fn reset(&mut self) {
@@ -290,10 +286,9 @@ where
         let Some(w) = self.work.as_mut() else {
             return Err(crate::Error::invalid("method", "Rodas5P::step called before init"));
         };
-        let n = x.len();
         if !(w.t_at == t && w.x_at == *x) {
             f.rhs(t, x, &mut w.fx)?;
-            f.jacobian(t, x, &mut w.j)?;
+            w.lin.evaluate(f, t, x)?;
             if !f.time_derivative(t, x, &mut w.dfdt)? {
                 // forward difference in t, for the d_i·h·f_t term only
                 let dt = f64::EPSILON.sqrt() * t.abs().max(1.0);
@@ -308,17 +303,13 @@ where
         }
         // W = I/(hγ) − J
         let inv_hg = 1.0 / (h * GAMMA);
-        w.m.copy_from(&w.j);
-        w.m.neg_mut();
-        for i in 0..n {
-            w.m[(i, i)] += inv_hg;
-        }
         f.stats.lu_decompositions += 1;
-        self.lu = D::Lu::factor(&w.m);
-        let Some(lu) = self.lu.as_ref() else {
+        if !w.lin.factor(inv_hg, -1.0) {
             return Ok(Outcome::Retry(Failure::Singular));
-        };
-        let Work { k, u, fx, dfdt, .. } = w;
+        }
+        let Work {
+            k, u, fx, dfdt, lin, ..
+        } = w;
         for s in 0..STAGES {
             let (done, rest) = k.split_at_mut(s);
             let ks = &mut rest[0];
@@ -340,7 +331,7 @@ where
             if D_T[s] != 0.0 {
                 ks.axpy(D_T[s] * h, dfdt, 1.0);
             }
-            lu.solve_in_place(ks);
+            lin.solve(ks);
         }
         // x₁ = U_8 + k_8
         x_new.copy_from(u);

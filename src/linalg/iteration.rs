@@ -1,0 +1,212 @@
+//! The iteration matrix of every implicit method, `M = a·I + b·J` (`I − c·J` for
+//! Newton, `I/(hγ) − J` for Rosenbrock), with the Jacobian it is built from: dense
+//! (`n × n`, the [`LuDim`] backend) or sparse (`J`'s non-zeros and faer's sparse LU).
+
+use super::{Lu, LuDim};
+use crate::error::Result;
+use crate::sparse::{Pattern, SparseLu};
+use crate::system::{Eval, System};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, OMatrix, OVector};
+
+/// `J` and the LU of `M = a·I + b·J`, dense or sparse as the run chose
+/// ([`Eval::sparse_pattern`]).
+pub(crate) enum IterationMatrix<D: LuDim>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    Dense {
+        j: OMatrix<f64, D, D>,
+        m: OMatrix<f64, D, D>,
+        lu: Option<D::Lu>,
+    },
+    Sparse(Box<SparseMatrix>),
+}
+
+/// `J`'s values in its pattern, `M`'s in `J ∪ diag`, the map between them and the LU.
+pub(crate) struct SparseMatrix {
+    pattern: Pattern,
+    j: Vec<f64>,
+    m: Vec<f64>,
+    /// `m[to_m[k]]` is the entry of `j[k]`.
+    to_m: Vec<usize>,
+    /// `m[diag[i]]` is `M_ii`.
+    diag: Vec<usize>,
+    lu: SparseLu,
+    /// `‖J‖∞` of the current `J` (computed with it: O(nnz)) and the row sums it uses.
+    norm: f64,
+    rows: Vec<f64>,
+}
+
+impl SparseMatrix {
+    fn new(pattern: Pattern) -> Option<Self> {
+        let mp = pattern.with_diagonal();
+        let to_m: Vec<usize> = pattern
+            .entries()
+            .map(|(i, j)| mp.position(i, j).expect("J's pattern is inside M's"))
+            .collect();
+        let diag: Vec<usize> = (0..mp.n()).filter_map(|i| mp.position(i, i)).collect();
+        let lu = SparseLu::new(&mp)?;
+        Some(SparseMatrix {
+            j: vec![0.0; pattern.nnz()],
+            m: vec![0.0; mp.nnz()],
+            to_m,
+            diag,
+            lu,
+            rows: vec![0.0; pattern.n()],
+            pattern,
+            norm: f64::NAN,
+        })
+    }
+}
+
+impl<D: LuDim> IterationMatrix<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    /// Storage for states shaped like `x0`, on the path the run chose.
+    pub fn new<S: System<D>>(f: &mut Eval<'_, D, S>, x0: &OVector<f64, D>) -> Result<Self> {
+        if let Some(p) = f.sparse_pattern(x0.len())? {
+            let s = SparseMatrix::new(p).ok_or_else(|| {
+                crate::Error::invalid("linear_solver", "faer's sparse LU could not analyse the pattern")
+            })?;
+            return Ok(IterationMatrix::Sparse(Box::new(s)));
+        }
+        let (r, _) = x0.shape_generic();
+        Ok(IterationMatrix::Dense {
+            j: OMatrix::<f64, D, D>::zeros_generic(r, r),
+            m: OMatrix::<f64, D, D>::zeros_generic(r, r),
+            lu: None,
+        })
+    }
+
+    /// `J ← ∂f/∂x (t, x)`; drops the LU.
+    pub fn evaluate<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t: f64, x: &OVector<f64, D>) -> Result<()> {
+        match self {
+            IterationMatrix::Dense { j, lu, .. } => {
+                *lu = None;
+                f.jacobian(t, x, j)
+            }
+            IterationMatrix::Sparse(s) => {
+                s.lu_drop();
+                f.sparse_jacobian(t, x, &mut s.j)?;
+                s.rows.fill(0.0);
+                for (&i, v) in s.pattern.row_idx().iter().zip(&s.j) {
+                    s.rows[i] += v.abs();
+                }
+                s.norm = s.rows.iter().copied().fold(0.0, f64::max);
+                Ok(())
+            }
+        }
+    }
+
+    /// Factor `M = a·I + b·J`; `false` when it is singular (or has non-finite pivots).
+    pub fn factor(&mut self, a: f64, b: f64) -> bool {
+        match self {
+            IterationMatrix::Dense { j, m, lu } => {
+                m.copy_from(j);
+                *m *= b;
+                for i in 0..m.nrows() {
+                    m[(i, i)] += a;
+                }
+                *lu = D::Lu::factor(m);
+                lu.is_some()
+            }
+            IterationMatrix::Sparse(s) => {
+                s.m.fill(0.0);
+                for (k, &v) in s.j.iter().enumerate() {
+                    s.m[s.to_m[k]] = b * v;
+                }
+                for &d in &s.diag {
+                    s.m[d] += a;
+                }
+                s.lu.factor(&s.m)
+            }
+        }
+    }
+
+    /// Whether an LU of the current `J` is at hand.
+    pub fn is_factored(&self) -> bool {
+        match self {
+            IterationMatrix::Dense { lu, .. } => lu.is_some(),
+            IterationMatrix::Sparse(s) => s.lu.is_factored(),
+        }
+    }
+
+    /// Forget the LU (the next solve must factor again).
+    pub fn drop_lu(&mut self) {
+        match self {
+            IterationMatrix::Dense { lu, .. } => *lu = None,
+            IterationMatrix::Sparse(s) => s.lu_drop(),
+        }
+    }
+
+    /// `v ← M⁻¹·v` with the last LU; `false` (v untouched) when there is none.
+    pub fn solve(&mut self, v: &mut OVector<f64, D>) -> bool {
+        match self {
+            IterationMatrix::Dense { lu: Some(lu), .. } => {
+                lu.solve_in_place(v);
+                true
+            }
+            IterationMatrix::Dense { lu: None, .. } => false,
+            IterationMatrix::Sparse(s) if s.lu.is_factored() => {
+                s.lu.solve_in_place(v.as_mut_slice());
+                true
+            }
+            IterationMatrix::Sparse(_) => false,
+        }
+    }
+
+    /// `‖J‖∞ = max_i Σ_j |J_ij|` (a bound on every eigenvalue's modulus).
+    pub fn norm_inf(&self) -> f64 {
+        match self {
+            IterationMatrix::Dense { j, .. } => j
+                .row_iter()
+                .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
+                .fold(0.0, f64::max),
+            IterationMatrix::Sparse(s) => s.norm,
+        }
+    }
+}
+
+impl SparseMatrix {
+    fn lu_drop(&mut self) {
+        self.lu.forget();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::IterationMatrix;
+    use crate::options::LinearSolver;
+    use crate::problems::{brusselator, brusselator_y0};
+    use crate::system::Eval;
+
+    /// `‖J‖∞` and the solves agree between the dense and the sparse variant.
+    #[test]
+    fn sparse_variant_matches_dense() {
+        let n = 40;
+        let sys = brusselator(n);
+        let x = brusselator_y0(n).map(|v| v * 0.9 + 0.05);
+        let mut fs = Eval::new(&sys, Vec::new());
+        fs.sparse.choice = LinearSolver::Sparse;
+        let mut fd = Eval::new(&sys, Vec::new());
+        fd.sparse.choice = LinearSolver::Dense;
+        let mut s = IterationMatrix::new(&mut fs, &x).unwrap();
+        let mut d = IterationMatrix::new(&mut fd, &x).unwrap();
+        assert!(matches!(s, IterationMatrix::Sparse(_)) && matches!(d, IterationMatrix::Dense { .. }));
+        s.evaluate(&mut fs, 0.0, &x).unwrap();
+        d.evaluate(&mut fd, 0.0, &x).unwrap();
+        assert!((s.norm_inf() - d.norm_inf()).abs() <= 1e-14 * d.norm_inf());
+        assert!(!s.is_factored() && !s.solve(&mut x.clone()));
+        for (a, b) in [(1.0, -1e-3), (1.0 / (0.01 * 0.2), -1.0)] {
+            assert!(s.factor(a, b) && d.factor(a, b));
+            let (mut vs, mut vd) = (x.clone(), x.clone());
+            assert!(s.solve(&mut vs) && d.solve(&mut vd));
+            assert!((&vs - &vd).amax() <= 1e-13 * vd.amax());
+        }
+        s.drop_lu();
+        assert!(!s.is_factored());
+        assert_eq!(fs.stats.jacobian_evals, 1);
+    }
+}

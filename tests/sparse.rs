@@ -1,0 +1,387 @@
+//! The sparse linear-algebra path of the implicit methods: faer's sparse LU against the
+//! dense one, sparse against dense runs of ImplicitEuler, Bdf and Rodas5P on BRUSS 1-D
+//! (500 points), the choice (`Options::linear_solver`), column colouring, and the shipped
+//! 2-D Brusselator against its published right-hand side.
+
+#[path = "common/bruss.rs"]
+mod bruss;
+
+use bruss::{Bruss, Jac};
+use nalgebra::{DMatrix, DVector, Dyn};
+use proptest::prelude::*;
+use reckon::methods::{Bdf, ImplicitEuler, Method, Rodas5P};
+use reckon::num_dual::DualDVec64;
+use reckon::options::{LinearSolver, Save};
+use reckon::problems::{brusselator, brusselator_2d, brusselator_2d_y0, brusselator_y0};
+use reckon::sparse::colour::{Coloured, Colouring, detect_pattern};
+use reckon::sparse::{Pattern, SparseJacobian, SparseLu};
+use reckon::{Error, Options, Problem, System};
+
+/// A random `n × n` pattern with the diagonal and about `density·n²` off-diagonal
+/// entries, values with `|a_ii| > Σ_{j≠i} |a_ij|` (rows), from a seed.
+fn dominant(n: usize, density: f64, seed: u64) -> (Pattern, Vec<f64>, DMatrix<f64>) {
+    let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    let mut next = move || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        ((s >> 11) as f64) / ((1u64 << 53) as f64)
+    };
+    let mut a = DMatrix::zeros(n, n);
+    for i in 0..n {
+        for j in 0..n {
+            if i != j && next() < density {
+                a[(i, j)] = 2.0 * next() - 1.0;
+            }
+        }
+    }
+    for i in 0..n {
+        let off: f64 = (0..n).filter(|&j| j != i).map(|j| f64::abs(a[(i, j)])).sum();
+        a[(i, i)] = (1.0 + off + next()) * if next() < 0.5 { -1.0 } else { 1.0 };
+    }
+    let e: Vec<_> = (0..n)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .filter(|&(i, j)| a[(i, j)] != 0.0)
+        .collect();
+    let p = Pattern::from_entries(n, &e);
+    let v = p.entries().map(|(i, j)| a[(i, j)]).collect();
+    (p, v, a)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// `A⁻¹b` by the sparse LU equals the dense LU's to 1e-12 (relative, max norm).
+    #[test]
+    fn sparse_lu_solves_like_dense(n in 1usize..80, density in 0.0f64..0.3, seed in any::<u64>()) {
+        let (p, v, a) = dominant(n, density, seed);
+        let mut lu = SparseLu::new(&p).unwrap();
+        prop_assert!(lu.factor(&v));
+        let b = DVector::from_fn(n, |i, _| (i as f64 * 0.7).sin() + 0.5);
+        let mut x = b.clone();
+        lu.solve_in_place(x.as_mut_slice());
+        let y = a.clone().lu().solve(&b).unwrap();
+        let err = (&x - &y).amax() / y.amax();
+        prop_assert!(err < 1e-12, "n {n}: relative difference {err:e}");
+        // and refactoring new values in the same pattern
+        let v2: Vec<f64> = v.iter().map(|x| x * 1.5).collect();
+        prop_assert!(lu.factor(&v2));
+        let mut x2 = b.clone();
+        lu.solve_in_place(x2.as_mut_slice());
+        let err2 = (&x2 * 1.5 - &y).amax() / y.amax();
+        prop_assert!(err2 < 1e-12, "refactor: {err2:e}");
+    }
+}
+
+/// A singular matrix in a pattern, or a non-finite value, fails the factorisation.
+#[test]
+fn singular_and_non_finite_fail() {
+    // [[1, 2], [2, 4]]: rank 1
+    let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]);
+    let mut lu = SparseLu::new(&p).unwrap();
+    assert!(!lu.factor(&[1.0, 2.0, 2.0, 4.0]));
+    assert!(!lu.factor(&[1.0, f64::NAN, 0.0, 1.0]));
+    assert!(lu.factor(&[1.0, 2.0, 0.0, 1.0]));
+    // a structurally singular one: an empty row
+    let q = Pattern::from_entries(3, &[(0, 0), (0, 1), (2, 2), (0, 2)]);
+    let mut lu = SparseLu::new(&q).unwrap();
+    assert!(!lu.factor(&[1.0, 1.0, 1.0, 1.0]));
+}
+
+const N: usize = 500;
+
+fn run<M: Method<Dyn>>(method: M, linear: LinearSolver, rtol: f64, t_end: f64) -> (DVector<f64>, reckon::Stats, Bruss) {
+    let sys = Bruss::new(N, Jac::Coloured);
+    let o = Options::default()
+        .rtol(rtol)
+        .atol(rtol)
+        .save(Save::End)
+        .dense(false)
+        .linear_solver(linear);
+    let sol = Problem::new(&sys, brusselator_y0(N), (0.0, t_end))
+        .solve(method, &o)
+        .unwrap();
+    let (x, stats) = (sol.last().1.clone(), sol.stats);
+    (x, stats, sys)
+}
+
+fn same(
+    name: &str,
+    make: impl Fn() -> (DVector<f64>, reckon::Stats, Bruss),
+    dense: impl Fn() -> (DVector<f64>, reckon::Stats, Bruss),
+) {
+    let (xs, ss, bs) = make();
+    let (xd, sd, bd) = dense();
+    let err = (&xs - &xd).amax() / xd.amax();
+    println!("{name}: sparse {ss:?}\n{name}: dense  {sd:?}\n{name}: relative difference {err:.1e}");
+    assert!(err < 1e-10, "{name}: sparse and dense differ by {err:e}");
+    assert_eq!(ss.accepted, sd.accepted, "{name}: the same steps");
+    // the paths were the ones asked for
+    assert_eq!(bs.dense_calls.get(), 0, "{name}: the sparse run made no dense J");
+    assert_eq!(bs.sparse_calls.get(), ss.jacobian_evals as usize);
+    assert_eq!(bd.sparse_calls.get(), 0, "{name}: the dense run made no sparse J");
+    assert_eq!(bd.dense_calls.get(), sd.jacobian_evals as usize);
+}
+
+/// BRUSS 1-D, 500 points (1 000 states): the sparse path (coloured J, faer sparse LU)
+/// and the dense one (hand-written J, faer dense LU) take the same steps to the same
+/// state, 1e-10 relative.
+#[test]
+fn implicit_euler_sparse_equals_dense() {
+    let r = |l| move || run(ImplicitEuler::default(), l, 1e-3, 10.0);
+    same("implicit-euler", r(LinearSolver::Sparse), r(LinearSolver::Dense));
+}
+
+#[test]
+fn bdf_sparse_equals_dense() {
+    let r = |l| move || run(Bdf::default(), l, 1e-6, 10.0);
+    same("bdf", r(LinearSolver::Sparse), r(LinearSolver::Dense));
+}
+
+#[test]
+fn rodas5p_sparse_equals_dense() {
+    let r = |l| move || run(Rodas5P::default(), l, 1e-6, 10.0);
+    same("rodas5p", r(LinearSolver::Sparse), r(LinearSolver::Dense));
+}
+
+/// `Auto` takes the sparse path for 1 000 states with 5 non-zeros per column, and does
+/// not even ask a 20-state model for its sparse Jacobian.
+#[test]
+fn auto_chooses_by_size_and_density() {
+    let (_, s, b) = run(Bdf::default(), LinearSolver::Auto, 1e-4, 0.1);
+    assert_eq!(b.made.get(), 1);
+    assert_eq!(b.dense_calls.get(), 0);
+    assert_eq!(b.sparse_calls.get(), s.jacobian_evals as usize);
+    let small = Bruss::new(10, Jac::Coloured);
+    let o = Options::default().save(Save::End);
+    Problem::new(&small, brusselator_y0(10), (0.0, 0.1))
+        .solve(Bdf::default(), &o)
+        .unwrap();
+    assert_eq!(small.made.get(), 0);
+    assert!(small.dense_calls.get() > 0);
+}
+
+/// Forcing `Sparse` on a model without a sparse Jacobian (a hand-written `System`, a
+/// `model!` whose body branches on the state and so cannot be traced) is a typed error
+/// that says why; `Auto` and `Dense` run such a model densely.
+#[test]
+fn forced_sparse_without_sparse_jacobian_is_refused() {
+    let o = Options::default().linear_solver(LinearSolver::Sparse);
+    let none = Bruss::new(40, Jac::None);
+    let p = Problem::new(&none, brusselator_y0(40), (0.0, 1.0));
+    #[allow(clippy::cmp_owned)] // S = f64 in one copy
+    let branchy = reckon::model!(|_, x: [S; Dyn]| x.map(|v| if v > S::from(0.0) { -v.clone() } else { v * 2.0 }));
+    let q = Problem::new(&branchy, DVector::from_element(80, 1.0), (0.0, 1.0));
+    assert!(branchy.sparse_jacobian(80).is_none());
+    for e in [
+        p.solve(Bdf::default(), &o).unwrap_err(),
+        p.solve(ImplicitEuler::default(), &o).unwrap_err(),
+        p.solve(Rodas5P::default(), &o).unwrap_err(),
+        q.solve(Bdf::default(), &o).unwrap_err(),
+    ] {
+        match e {
+            Error::InvalidInput { what, reason } => {
+                assert_eq!(what, "linear_solver");
+                assert!(reason.contains("sparse Jacobian"), "{reason}");
+            }
+            e => panic!("{e:?}"),
+        }
+    }
+    for l in [LinearSolver::Auto, LinearSolver::Dense] {
+        let o = Options::default().linear_solver(l);
+        assert!(p.solve(Bdf::default(), &o).is_ok());
+        let y = q.solve(Bdf::default(), &o).unwrap().last().1[0];
+        assert!((y - (-1.0f64).exp()).abs() < 1e-4, "{y}");
+    }
+}
+
+/// `problems::brusselator` is a traced `model!`: its compiled sparse Jacobian (the
+/// symbolic layer's) takes the sparse path under `Auto` and agrees with the dense run.
+#[test]
+fn traced_model_takes_the_sparse_path() {
+    let sys = brusselator(N);
+    let o = Options::default().rtol(1e-6).atol(1e-6).save(Save::End).dense(false);
+    let p = Problem::new(&sys, brusselator_y0(N), (0.0, 10.0));
+    let mut j = sys.sparse_jacobian(2 * N).expect("traced");
+    assert_eq!(j.pattern(), &bruss::pattern(N));
+    let y = brusselator_y0(N).map(|v| v * 0.9 + 0.05);
+    let mut v = vec![0.0; j.pattern().nnz()];
+    j.eval(0.0, y.as_slice(), &[], &mut v);
+    let mut w = vec![0.0; v.len()];
+    Bruss::new(N, Jac::Hand)
+        .sparse_jacobian(2 * N)
+        .unwrap()
+        .eval(0.0, y.as_slice(), &[], &mut w);
+    let worst = v.iter().zip(&w).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    assert!(worst <= 1e-14 * 2.0e4, "compiled vs hand {worst:e}");
+    // a spy on the dense Jacobian: the Auto run never calls it
+    struct Spy<M>(M, std::cell::Cell<usize>);
+    impl<M: System<Dyn>> System<Dyn> for Spy<M> {
+        fn rhs(&self, t: f64, x: &DVector<f64>, u: &[f64], dx: &mut DVector<f64>) {
+            self.0.rhs(t, x, u, dx)
+        }
+        fn jacobian(&self, t: f64, x: &DVector<f64>, u: &[f64], j: &mut DMatrix<f64>) {
+            self.1.set(self.1.get() + 1);
+            self.0.jacobian(t, x, u, j)
+        }
+        fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn SparseJacobian + '_>> {
+            self.0.sparse_jacobian(n)
+        }
+    }
+    let spy = Spy(brusselator(N), Default::default());
+    let auto = Problem::new(&spy, brusselator_y0(N), (0.0, 10.0))
+        .solve(Bdf::default(), &o)
+        .unwrap();
+    assert_eq!(spy.1.get(), 0, "Auto took the sparse path");
+    assert!(auto.stats.jacobian_evals > 0);
+    let dense = p
+        .solve(Bdf::default(), &o.clone().linear_solver(LinearSolver::Dense))
+        .unwrap();
+    let err = (auto.last().1 - dense.last().1).amax() / dense.last().1.amax();
+    assert!(err < 1e-10, "{err:e}");
+    assert_eq!(auto.stats.accepted, dense.stats.accepted);
+    // the 2-D Brusselator too: its pattern is the one detected from the dual body
+    let m = 8;
+    let f8 = brusselator_2d(m);
+    let g = |t: f64, x: &DVector<DualDVec64>, u: &[f64]| reckon::DualSystem::rhs_dual(&f8, t, x, u);
+    let detected = detect_pattern(&g, 0.0, &brusselator_2d_y0(m), &[]);
+    assert_eq!(f8.sparse_jacobian(2 * m * m).expect("traced").pattern(), &detected);
+}
+
+/// Greedy colouring of BRUSS 1-D's interleaved `(u_i, v_i)` pattern: 4 colours at every
+/// size from 4 points on, the optimum (a row holds 4 entries, which need 4 colours), in
+/// the period `0 1 2 3 1 0 3 2` over 4 states; the coloured Jacobian equals num-dual's
+/// dense one, and the pattern detected from the body is the hand-written one.
+#[test]
+fn colouring_of_bruss_and_exact_values() {
+    for n in [4, 5, 50, 500] {
+        let c = Colouring::greedy(&bruss::pattern(n));
+        assert_eq!(c.count(), 4, "n = {n}");
+        let period = [0, 1, 2, 3, 1, 0, 3, 2];
+        assert!(c.colours().iter().enumerate().all(|(k, &col)| col == period[k % 8]));
+
+        // no two columns of one colour share a row
+        let p = bruss::pattern(n);
+        for i in 0..2 * n {
+            let mut seen = std::collections::HashSet::new();
+            for (r, col) in p.entries() {
+                if r == i {
+                    assert!(seen.insert(c.colours()[col]));
+                }
+            }
+        }
+    }
+    let n = 500;
+    let c = (n as f64 + 1.0).powi(2) / 50.0;
+    let g = move |_t: f64, x: &DVector<DualDVec64>, _u: &[f64]| bruss::body(x, c);
+    let mut jac = Coloured::new(bruss::pattern(n), g);
+    let y = brusselator_y0(n).map(|v| v * 0.9 + 0.05);
+    let mut values = vec![0.0; jac.pattern().nnz()];
+    jac.eval(0.0, y.as_slice(), &[], &mut values);
+    let mut dense = DMatrix::zeros(2 * n, 2 * n);
+    brusselator(n).jacobian(0.0, &y, &[], &mut dense);
+    let scale = dense.amax();
+    let mut worst: f64 = 0.0;
+    for ((i, j), v) in jac.pattern().entries().zip(&values) {
+        worst = worst.max((v - dense[(i, j)]).abs());
+        dense[(i, j)] = 0.0;
+    }
+    assert!(worst <= 1e-14 * scale, "coloured vs dense {:e}", worst / scale);
+    assert_eq!(dense.amax(), 0.0, "every non-zero is in the pattern");
+    // the detected pattern is the hand-written one
+    assert_eq!(detect_pattern(&g, 0.0, &brusselator_y0(60), &[]), bruss::pattern(60));
+}
+
+/// The shipped 2-D Brusselator reproduces the right-hand side printed in DiffEqGPU.jl's
+/// `docs/src/examples/bruss.md` at `n = 32` (Julia's 1-based indices), with the forcing
+/// on at `t = 1.3` in the disc only; its pattern is sparse, 12 entries per `u` row.
+#[test]
+fn brusselator_2d_matches_published_rhs() {
+    let n = 32;
+    let (f, y0) = (brusselator_2d(n), brusselator_2d_y0(n));
+    let mut du = y0.clone();
+    f.rhs(0.0, &y0, &[], &mut du);
+    let published = [
+        (34, 802.9807693762164),
+        (1058, 985.3120721709204),
+        (2000, -403.5817880634729),
+        (2048, 1431.1460373522068),
+        (521, -323.1677459142322),
+    ];
+    for (k, v) in published {
+        assert!(
+            (du[k - 1] - v).abs() <= 1e-12 * v.abs(),
+            "du[{k}] = {} vs {v}",
+            du[k - 1]
+        );
+    }
+    let mut du2 = y0.clone();
+    f.rhs(1.3, &y0, &[], &mut du2);
+    assert!((du2[520] - -318.1677459142322).abs() <= 1e-12 * 318.2);
+    assert_eq!(
+        (&du2 - &du).iter().filter(|d| **d != 0.0).count(),
+        30,
+        "grid points in the disc"
+    );
+    assert!((&du2 - &du).iter().all(|d| *d == 0.0 || *d == 5.0));
+    // pattern: u_ij reads u at its 5-point stencil and v_ij; v_ij the same
+    let m = 8;
+    let f8 = brusselator_2d(m);
+    let g = |t: f64, x: &DVector<DualDVec64>, u: &[f64]| reckon::DualSystem::rhs_dual(&f8, t, x, u);
+    let p = detect_pattern(&g, 0.0, &brusselator_2d_y0(m), &[]);
+    assert_eq!(p.nnz(), 6 * 2 * m * m);
+    assert!(p.density() < 0.05);
+}
+
+/// The implicit methods stay `Send + Sync` with the sparse variant inside.
+#[test]
+fn methods_are_send_and_sync() {
+    fn check<T: Send + Sync>() {}
+    check::<ImplicitEuler<Dyn>>();
+    check::<Bdf<Dyn>>();
+    check::<Rodas5P<Dyn>>();
+    check::<reckon::methods::Auto<Dyn>>();
+    check::<SparseLu>();
+}
+
+/// `Auto` (DOPRI5 ↔ BDF on `h·‖J‖∞`, the norm taken from the sparse values on the sparse
+/// path) makes the same switches at the same steps on both paths.
+#[test]
+fn auto_method_switches_alike_on_both_paths() {
+    let sys = Bruss::new(100, Jac::Hand);
+    let p = Problem::new(&sys, brusselator_y0(100), (0.0, 10.0));
+    let o = Options::default().rtol(1e-5).atol(1e-5).save(Save::End).dense(false);
+    let s = p
+        .solve(
+            reckon::methods::Auto::default(),
+            &o.clone().linear_solver(LinearSolver::Sparse),
+        )
+        .unwrap();
+    let d = p
+        .solve(reckon::methods::Auto::default(), &o.linear_solver(LinearSolver::Dense))
+        .unwrap();
+    assert!(!s.switches.is_empty(), "BRUSS is stiff: Auto switches to BDF");
+    assert_eq!(s.switches, d.switches);
+    assert_eq!(s.stats.accepted, d.stats.accepted);
+    let err = (s.last().1 - d.last().1).amax() / d.last().1.amax();
+    assert!(err < 1e-10, "{err:e}");
+}
+
+/// `problems::brusselator` is HNW's BRUSS (ODE II §IV.1, (1.6′)): `x_i = i/(N+1)`,
+/// `u_i(0) = 1 + sin(2πx_i)` (the book's amplitude 1), `v_i(0) = 3`, α = 1/50 with the
+/// boundary values `u = 1, v = 3`.
+#[test]
+fn brusselator_1d_is_the_books_setup() {
+    let n = 500;
+    let y0 = brusselator_y0(n);
+    let x = |i: usize| i as f64 / (n as f64 + 1.0);
+    for i in [1usize, 125, 250, 500] {
+        assert!((y0[2 * (i - 1)] - (1.0 + (2.0 * std::f64::consts::PI * x(i)).sin())).abs() < 1e-15);
+        assert_eq!(y0[2 * (i - 1) + 1], 3.0);
+    }
+    let mut f = y0.clone();
+    brusselator(n).rhs(0.0, &y0, &[], &mut f);
+    let (u1, u2) = (y0[0], y0[2]);
+    let alpha = 1.0 / 50.0 * (n as f64 + 1.0).powi(2);
+    let expect = 1.0 + u1 * u1 * 3.0 - 4.0 * u1 + alpha * (1.0 - 2.0 * u1 + u2);
+    // the diffusion terms (≈ 5 000 × 4) cancel to 0.016: rounding is relative to them
+    let scale = alpha * (1.0 + 2.0 * u1.abs() + u2.abs());
+    assert!((f[0] - expect).abs() < 1e-14 * scale, "{} vs {expect}", f[0]);
+}

@@ -216,7 +216,7 @@ where
     }
 }
 
-impl<D: Dim, F, G, T, Tr> System<D> for ClosureModel<D, F, G, T, Tr>
+impl<D: crate::sparse::colour::ColourDim, F, G, T, Tr> System<D> for ClosureModel<D, F, G, T, Tr>
 where
     F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
@@ -259,11 +259,14 @@ where
             .traceable()
             .then(|| crate::symbolic::trace_body(&self.tr, &model_name::<F>(), n, self.inputs))
     }
-    /// The compiled symbolic Jacobian when the body can be traced.
+    /// The compiled symbolic Jacobian when the body can be traced; for a `DVector` body that
+    /// cannot be (its control flow depends on the state or on a plain-f64 time), num-dual
+    /// with a column colouring of the pattern detected from the body
+    /// ([`ColourDim`](crate::sparse::colour::ColourDim)).
     fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
-        match self.symbolic(n)? {
-            Ok(tr) => Some(Box::new(tr.compile_jacobian())),
-            Err(_) => None,
+        match self.symbolic(n) {
+            Some(Ok(tr)) => Some(Box::new(tr.compile_jacobian())),
+            Some(Err(_)) | None => D::coloured(&self.g, n, self.inputs),
         }
     }
 }
@@ -278,7 +281,7 @@ where
     fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D>;
 }
 
-impl<D: Dim, F, G, T, Tr> DualSystem<D> for ClosureModel<D, F, G, T, Tr>
+impl<D: crate::sparse::colour::ColourDim, F, G, T, Tr> DualSystem<D> for ClosureModel<D, F, G, T, Tr>
 where
     F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,

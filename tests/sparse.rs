@@ -158,9 +158,10 @@ fn auto_chooses_by_size_and_density() {
     assert!(small.dense_calls.get() > 0);
 }
 
-/// Forcing `Sparse` on a model without a sparse Jacobian (a hand-written `System`, a
-/// `model!` whose body branches on the state and so cannot be traced) is a typed error
-/// that says why; `Auto` and `Dense` run such a model densely.
+/// Forcing `Sparse` on a model without a sparse Jacobian (a hand-written `System`) is a
+/// typed error that says why; `Auto` and `Dense` run such a model densely. A `model!`
+/// whose `DVector` body branches on the state cannot be traced but is coloured: its
+/// detected pattern takes the sparse path and gives the dense path's answer.
 #[test]
 fn forced_sparse_without_sparse_jacobian_is_refused() {
     let o = Options::default().linear_solver(LinearSolver::Sparse);
@@ -169,12 +170,18 @@ fn forced_sparse_without_sparse_jacobian_is_refused() {
     #[allow(clippy::cmp_owned)] // S = f64 in one copy
     let branchy = reckon::model!(|_, x: [S; Dyn]| x.map(|v| if v > S::from(0.0) { -v.clone() } else { v * 2.0 }));
     let q = Problem::new(&branchy, DVector::from_element(80, 1.0), (0.0, 1.0));
-    assert!(branchy.sparse_jacobian(80).is_none());
+    assert!(matches!(
+        reckon::symbolic::trace(&branchy, 80),
+        Err(Error::Untraceable { .. })
+    ));
+    let coloured = branchy.sparse_jacobian(80).expect("coloured");
+    assert_eq!(coloured.pattern().nnz(), 80, "a diagonal Jacobian");
+    let ys = q.solve(Bdf::default(), &o).unwrap().last().1[0];
+    assert!((ys - (-1.0f64).exp()).abs() < 1e-4, "{ys}");
     for e in [
         p.solve(Bdf::default(), &o).unwrap_err(),
         p.solve(ImplicitEuler::default(), &o).unwrap_err(),
         p.solve(Rodas5P::default(), &o).unwrap_err(),
-        q.solve(Bdf::default(), &o).unwrap_err(),
     ] {
         match e {
             Error::InvalidInput { what, reason } => {
@@ -237,12 +244,38 @@ fn traced_model_takes_the_sparse_path() {
     let err = (auto.last().1 - dense.last().1).amax() / dense.last().1.amax();
     assert!(err < 1e-10, "{err:e}");
     assert_eq!(auto.stats.accepted, dense.stats.accepted);
-    // the 2-D Brusselator too: its pattern is the one detected from the dual body
+    // the 2-D Brusselator branches on its (plain-f64) time, so it is not traced but
+    // coloured: its pattern is the one detected from the dual body at y0, and it is
+    // exactly the 5-point stencil of each species plus the u–v coupling at each point
     let m = 8;
     let f8 = brusselator_2d(m);
+    match reckon::symbolic::trace(&f8, 2 * m * m) {
+        Err(Error::Untraceable { reason, .. }) => assert!(reason.contains("branches on its time"), "{reason}"),
+        other => panic!("{other:?}"),
+    }
     let g = |t: f64, x: &DVector<DualDVec64>, u: &[f64]| reckon::DualSystem::rhs_dual(&f8, t, x, u);
     let detected = detect_pattern(&g, 0.0, &brusselator_2d_y0(m), &[]);
-    assert_eq!(f8.sparse_jacobian(2 * m * m).expect("traced").pattern(), &detected);
+    let coloured = f8.sparse_jacobian(2 * m * m).expect("coloured");
+    assert_eq!(coloured.pattern(), &detected);
+    let nn = m * m;
+    let mut e = Vec::new();
+    for s in 0..2 {
+        for j in 0..m {
+            for i in 0..m {
+                let row = s * nn + i + m * j;
+                let at = |i: usize, j: usize| s * nn + i + m * j;
+                e.extend([
+                    (row, at(i, j)),
+                    (row, at((i + 1) % m, j)),
+                    (row, at((i + m - 1) % m, j)),
+                    (row, at(i, (j + 1) % m)),
+                    (row, at(i, (j + m - 1) % m)),
+                    (row, (1 - s) * nn + i + m * j),
+                ]);
+            }
+        }
+    }
+    assert_eq!(coloured.pattern(), &reckon::sparse::Pattern::from_entries(2 * nn, &e));
 }
 
 /// Greedy colouring of BRUSS 1-D's interleaved `(u_i, v_i)` pattern: 4 colours at every

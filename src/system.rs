@@ -96,14 +96,34 @@ where
 ///
 /// `f(t, x, u)` runs at hand-written `f64` cost; `J = ∂f/∂x` is exact to rounding
 /// because `G` propagates derivatives alongside values.
-#[derive(Clone)]
 pub struct ClosureModel<D, F, G, T = NoTimeDerivative, Tr = crate::symbolic::NoTrace> {
     inputs: usize,
     f: F,
     g: G,
     dt: T,
     tr: Tr,
+    /// The compiled symbolic Jacobian of the first [`System::sparse_jacobian`] call (for
+    /// that state size; `None` inside when the body cannot be traced), reused by later
+    /// solves instead of tracing again.
+    compiled: std::sync::OnceLock<(usize, Option<crate::symbolic::CompiledJacobian>)>,
+    /// How many times the body was traced for `sparse_jacobian`.
+    traces: std::sync::atomic::AtomicUsize,
     _dim: PhantomData<D>,
+}
+
+impl<D, F: Clone, G: Clone, T: Clone, Tr: Clone> Clone for ClosureModel<D, F, G, T, Tr> {
+    fn clone(&self) -> Self {
+        ClosureModel {
+            inputs: self.inputs,
+            f: self.f.clone(),
+            g: self.g.clone(),
+            dt: self.dt.clone(),
+            tr: self.tr.clone(),
+            compiled: self.compiled.clone(),
+            traces: std::sync::atomic::AtomicUsize::new(0),
+            _dim: PhantomData,
+        }
+    }
 }
 
 impl<D, F, G> ClosureModel<D, F, G> {
@@ -116,6 +136,8 @@ impl<D, F, G> ClosureModel<D, F, G> {
             g,
             dt: NoTimeDerivative,
             tr: crate::symbolic::NoTrace,
+            compiled: std::sync::OnceLock::new(),
+            traces: std::sync::atomic::AtomicUsize::new(0),
             _dim: PhantomData,
         }
     }
@@ -131,6 +153,8 @@ impl<D, F, G, T, Tr> ClosureModel<D, F, G, T, Tr> {
             g: self.g,
             dt,
             tr: self.tr,
+            compiled: self.compiled,
+            traces: self.traces,
             _dim: PhantomData,
         }
     }
@@ -145,8 +169,18 @@ impl<D, F, G, T, Tr> ClosureModel<D, F, G, T, Tr> {
             g: self.g,
             dt: self.dt,
             tr,
+            compiled: std::sync::OnceLock::new(),
+            traces: std::sync::atomic::AtomicUsize::new(0),
             _dim: PhantomData,
         }
+    }
+}
+
+impl<D, F, G, T, Tr> ClosureModel<D, F, G, T, Tr> {
+    /// How many times [`System::sparse_jacobian`] traced the body (the first call traces and
+    /// compiles, later calls for the same state size reuse the compiled Jacobian).
+    pub fn traces(&self) -> usize {
+        self.traces.load(std::sync::atomic::Ordering::Relaxed)
     }
 }
 
@@ -263,10 +297,22 @@ where
     /// cannot be (its control flow depends on the state or on a plain-f64 time), num-dual
     /// with a column colouring of the pattern detected from the body
     /// ([`ColourDim`](crate::sparse::colour::ColourDim)).
+    ///
+    /// The compiled Jacobian is traced once and kept in the model, so later solves of the
+    /// same size (and clones made after the first solve) skip the trace.
     fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
-        match self.symbolic(n) {
-            Some(Ok(tr)) => Some(Box::new(tr.compile_jacobian())),
-            Some(Err(_)) | None => D::coloured(&self.g, n, self.inputs),
+        let compile = || {
+            if !self.tr.traceable() {
+                return None;
+            }
+            self.traces.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            self.symbolic(n).and_then(|r| r.ok()).map(|tr| tr.compile_jacobian())
+        };
+        let cached = self.compiled.get_or_init(|| (n, compile()));
+        let compiled = if cached.0 == n { cached.1.clone() } else { compile() };
+        match compiled {
+            Some(c) => Some(Box::new(c)),
+            None => D::coloured(&self.g, n, self.inputs),
         }
     }
 }

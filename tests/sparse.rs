@@ -418,3 +418,32 @@ fn brusselator_1d_is_the_books_setup() {
     let scale = alpha * (1.0 + 2.0 * u1.abs() + u2.abs());
     assert!((f[0] - expect).abs() < 1e-14 * scale, "{} vs {expect}", f[0]);
 }
+
+/// A traced model compiles its sparse Jacobian once: later solves of the same size reuse
+/// it (bit-for-bit the same answer), another size traces again.
+#[test]
+fn the_compiled_jacobian_is_traced_once_per_size() {
+    // a diffusion chain x_i' = x_{i−1} − 2x_i + x_{i+1} − x_i³ (zero boundaries)
+    let f = reckon::model!(|_, x: [S; Dyn]| {
+        let n = x.len();
+        DVector::from_fn(n, |i, _| {
+            let l = if i == 0 { S::from(0.0) } else { x[i - 1].clone() };
+            let r = if i + 1 == n { S::from(0.0) } else { x[i + 1].clone() };
+            l + r - x[i].clone() * 2.0 - x[i].powi(3)
+        })
+    });
+    let o = Options::default().rtol(1e-6).atol(1e-8).save(Save::End);
+    let solve = |n: usize| {
+        Problem::new(&f, DVector::from_fn(n, |i, _| (i as f64 * 0.1).sin()), (0.0, 1.0))
+            .solve(Bdf::default(), &o)
+            .unwrap()
+    };
+    assert_eq!(f.traces(), 0);
+    let a = solve(100);
+    assert_eq!(f.traces(), 1, "Auto took the sparse path and traced");
+    let b = solve(100);
+    assert_eq!(f.traces(), 1, "the second solve reused the compiled Jacobian");
+    assert_eq!(a.last().1, b.last().1);
+    let _ = solve(120);
+    assert_eq!(f.traces(), 2, "another size traces again");
+}

@@ -51,19 +51,7 @@ impl Program {
     /// The program that evaluates `roots` of `g`.
     pub(crate) fn new(g: &Graph, roots: &[u32]) -> Program {
         let len = g.len();
-        let mut reach = vec![false; len];
-        let mut stack: Vec<u32> = roots.to_vec();
-        while let Some(id) = stack.pop() {
-            if std::mem::replace(&mut reach[id as usize], true) {
-                continue;
-            }
-            let (args, k) = g.node(id).args();
-            for &a in &args[..k] {
-                if !reach[a as usize] {
-                    stack.push(a);
-                }
-            }
-        }
+        let reach = g.reachable(roots);
         let mut slot = vec![u32::MAX; len];
         let mut template = Vec::new();
         let (mut state_loads, mut input_loads, mut time_slot) = (Vec::new(), Vec::new(), None);

@@ -241,6 +241,20 @@ impl Graph {
         self.nodes == other.nodes
     }
 
+    /// Which nodes `roots` depend on (the roots included), indexed by id.
+    pub fn reachable(&self, roots: &[u32]) -> Vec<bool> {
+        let mut reach = vec![false; self.nodes.len()];
+        let mut stack: Vec<u32> = roots.to_vec();
+        while let Some(id) = stack.pop() {
+            if std::mem::replace(&mut reach[id as usize], true) {
+                continue;
+            }
+            let (args, k) = self.node(id).args();
+            stack.extend(args[..k].iter().filter(|&&a| !reach[a as usize]));
+        }
+        reach
+    }
+
     /// The node with id `id`.
     pub fn node(&self, id: u32) -> Node {
         self.nodes[id as usize]

@@ -474,17 +474,8 @@ pub(crate) fn rust_body(g: &Graph, targets: &[(String, u32)], names: &Names, ind
 
 /// Whether the Rust body uses the `sgn` helper.
 pub(crate) fn uses_sign(g: &Graph, roots: &[u32]) -> bool {
-    let mut stack = roots.to_vec();
-    let mut seen = std::collections::HashSet::new();
-    while let Some(id) = stack.pop() {
-        if !seen.insert(id) {
-            continue;
-        }
-        if let Node::F(Func::Sign, _) = g.node(id) {
-            return true;
-        }
-        let (args, k) = g.node(id).args();
-        stack.extend_from_slice(&args[..k]);
-    }
-    false
+    g.reachable(roots)
+        .iter()
+        .enumerate()
+        .any(|(id, &r)| r && matches!(g.node(id as u32), Node::F(Func::Sign, _)))
 }

@@ -2,7 +2,8 @@
 //! against num-dual's dual-number Jacobian of the same body, on the unicycle, the
 //! car-like model, Robertson and the 1-D Brusselator with 500 points (1 000 states).
 //! Both write the dense matrix; at 1 000 states the symbolic one also fills the CSC
-//! values directly (what the sparse implicit path uses).
+//! values directly (what the sparse implicit path uses). "symbolic" runs the native code
+//! (Cranelift) where the program is short enough, "symbolic-interpreted" the interpreter.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector, vector};
@@ -24,6 +25,7 @@ fn small<const N: usize>(
     g.warm_up_time(Duration::from_millis(300))
         .measurement_time(Duration::from_secs(2));
     let mut compiled = symbolic::trace(f, N).unwrap().compile_jacobian();
+    let mut interpreted = compiled.clone().interpreted();
     let mut jd = SMatrix::<f64, N, N>::zeros();
     let mut js = vec![0.0; N * N];
     // interleaved: one contender, then the other, same inputs
@@ -36,6 +38,12 @@ fn small<const N: usize>(
     g.bench_function("symbolic", |b| {
         b.iter(|| {
             compiled.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js);
+            black_box(&js);
+        })
+    });
+    g.bench_function("symbolic-interpreted", |b| {
+        b.iter(|| {
+            interpreted.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js);
             black_box(&js);
         })
     });
@@ -79,6 +87,13 @@ fn jacobians(c: &mut Criterion) {
     g.bench_function(BenchmarkId::new("symbolic", "csc"), |b| {
         b.iter(|| {
             compiled.eval(0.0, black_box(x.as_slice()), &[], &mut vals);
+            black_box(&vals);
+        })
+    });
+    let mut interpreted = compiled.clone().interpreted();
+    g.bench_function(BenchmarkId::new("symbolic-interpreted", "csc"), |b| {
+        b.iter(|| {
+            interpreted.eval(0.0, black_box(x.as_slice()), &[], &mut vals);
             black_box(&vals);
         })
     });

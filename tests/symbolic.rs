@@ -17,6 +17,10 @@ fn close(a: &[f64], b: &[f64], tol: f64) -> bool {
     a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol * scale)
 }
 
+fn bits(v: &[f64]) -> Vec<u64> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
 /// The compiled symbolic Jacobian against num-dual's at `points` random states.
 fn check_fixed<const N: usize>(name: &str, f: &impl System<nalgebra::Const<N>>, inputs: usize, seed: u64)
 where
@@ -24,6 +28,9 @@ where
 {
     let tr = symbolic::trace(f, N).unwrap_or_else(|e| panic!("{name}: {e}"));
     let mut compiled = tr.compile_jacobian();
+    assert_eq!(compiled.is_native(), cfg!(feature = "jit"), "{name}");
+    let mut interpreted = compiled.clone().interpreted();
+    assert!(!interpreted.is_native());
     let mut rng = StdRng::seed_from_u64(seed);
     for _ in 0..20 {
         let x = SVector::<f64, N>::from_fn(|_, _| rng.random_range(0.1..1.5));
@@ -37,9 +44,16 @@ where
             close(&js, jd.as_slice(), 1e-14),
             "{name} at x = {x:?}, u = {u:?}:\nsymbolic {js:?}\nnum-dual {jd}"
         );
+        // native code and the interpreter agree bit for bit
+        let mut ji = vec![f64::NAN; N * N];
+        interpreted.eval_dense(t, x.as_slice(), &u, &mut ji);
+        assert_eq!(bits(&js), bits(&ji), "{name}: native and interpreted differ");
         // and through the sparse interface
         let mut v = vec![0.0; compiled.pattern().nnz()];
         compiled.eval(t, x.as_slice(), &u, &mut v);
+        let mut vi = vec![0.0; v.len()];
+        interpreted.eval(t, x.as_slice(), &u, &mut vi);
+        assert_eq!(bits(&v), bits(&vi), "{name}: native and interpreted CSC values differ");
         for ((i, j), val) in compiled.pattern().entries().zip(&v) {
             assert_eq!(
                 *val,
@@ -81,6 +95,13 @@ fn brusselator_matches_num_dual_and_is_pentadiagonal() {
     let mut js = vec![0.0; 4 * n * n];
     compiled.eval_dense(0.0, x.as_slice(), &[], &mut js);
     assert!(close(&js, jd.as_slice(), 1e-14));
+    // 100 states: native code writes the CSC values, which are scattered into the matrix
+    let mut ji = vec![0.0; 4 * n * n];
+    compiled
+        .clone()
+        .interpreted()
+        .eval_dense(0.0, x.as_slice(), &[], &mut ji);
+    assert_eq!(bits(&js), bits(&ji));
     // u_i couples to u_{i−1}, u_i, v_i, u_{i+1}; v_i to v_{i−1}, u_i, v_i, v_{i+1}
     let mut e = Vec::new();
     for i in 0..n {
@@ -309,7 +330,11 @@ proptest! {
         prop_assume!(jd.iter().chain(fx.iter()).all(|v| v.is_finite() && v.abs() < 1e8));
         let tr = symbolic::trace(&f, 3).unwrap();
         let mut js = vec![0.0; 9];
-        tr.compile_jacobian().eval_dense(0.0, &x, &[], &mut js);
+        let mut c = tr.compile_jacobian();
+        c.eval_dense(0.0, &x, &[], &mut js);
+        let mut ji = vec![0.0; 9];
+        c.interpreted().eval_dense(0.0, &x, &[], &mut ji);
+        prop_assert_eq!(bits(&js), bits(&ji), "native and interpreted differ");
         for (k, (&a, &b)) in js.iter().zip(jd.as_slice()).enumerate() {
             prop_assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "entry {}: symbolic {} num-dual {}", k, a, b);
         }

@@ -1,17 +1,30 @@
 //! The compiled evaluator: the part of the graph the requested expressions need,
 //! flattened in topological order into a list of three-address instructions over one
-//! array of `f64` slots (constants and leaves first, then one slot per instruction).
-//! Running it is a single pass with no allocation and no hashing.
+//! array of `f64` slots (constants first, then one slot per instruction; reading a state,
+//! an input or the time is an instruction too). Running it is a single pass with no
+//! allocation and no hashing: one flat opcode per instruction, so the dispatch is one
+//! jump table, and `sin a` with `cos a` of the same `a` is one `sin_cos`.
 
 use super::graph::{Func, Graph, Node};
+use super::jit::{self, Layout, Native};
 use crate::sparse::{Pattern, SparseJacobian};
+use std::collections::HashMap;
+use std::sync::Arc;
 
-#[derive(Debug, Clone, Copy)]
-enum Op {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(super) enum Op {
+    /// `d ← x[a]`
+    LoadX,
+    /// `d ← u[a]`
+    LoadU,
+    /// `d ← t`
+    LoadT,
     Neg,
     Add,
     Sub,
     Mul,
+    /// `d ← −(a·b)`
+    NegMul,
     Div,
     Rem,
     /// `b` is the slot of the exponent (an integer-valued constant)
@@ -19,30 +32,76 @@ enum Op {
     /// `b` is the slot of the exponent
     Powf,
     Atan2,
-    F(Func),
+    /// `d ← sin a`, `b ← cos a` (`b` is the slot of the `cos a` node)
+    SinCos,
+    Sin,
+    Cos,
+    Tan,
+    Exp,
+    ExpM1,
+    Ln,
+    Ln1p,
+    Sqrt,
+    Cbrt,
+    Abs,
+    Sign,
+    Asin,
+    Acos,
+    Atan,
+    Sinh,
+    Cosh,
+    Tanh,
+    Asinh,
+    Acosh,
+    Atanh,
+    Trunc,
+}
+
+impl Op {
+    fn func(f: Func) -> Op {
+        match f {
+            Func::Sin => Op::Sin,
+            Func::Cos => Op::Cos,
+            Func::Tan => Op::Tan,
+            Func::Exp => Op::Exp,
+            Func::ExpM1 => Op::ExpM1,
+            Func::Ln => Op::Ln,
+            Func::Ln1p => Op::Ln1p,
+            Func::Sqrt => Op::Sqrt,
+            Func::Cbrt => Op::Cbrt,
+            Func::Abs => Op::Abs,
+            Func::Sign => Op::Sign,
+            Func::Asin => Op::Asin,
+            Func::Acos => Op::Acos,
+            Func::Atan => Op::Atan,
+            Func::Sinh => Op::Sinh,
+            Func::Cosh => Op::Cosh,
+            Func::Tanh => Op::Tanh,
+            Func::Asinh => Op::Asinh,
+            Func::Acosh => Op::Acosh,
+            Func::Atanh => Op::Atanh,
+            Func::Trunc => Op::Trunc,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy)]
-struct Ins {
-    op: Op,
-    a: u32,
-    b: u32,
+pub(super) struct Ins {
+    pub op: Op,
+    /// destination slot
+    pub d: u32,
+    pub a: u32,
+    pub b: u32,
 }
 
 /// A flattened evaluator of some nodes of a graph.
 #[derive(Debug, Clone)]
 pub struct Program {
-    /// Slot values with the constants in place (the leaves and results are overwritten).
+    /// Slot values with the constants in place (the other slots are overwritten).
     template: Vec<f64>,
-    /// `(slot, state index)` of every state read
-    state_loads: Vec<(u32, u32)>,
-    /// `(slot, input index)` of every input read
-    input_loads: Vec<(u32, u32)>,
-    time_slot: Option<u32>,
     /// One more than the largest state and input index read.
     min_x: usize,
     min_u: usize,
-    base: usize,
     ins: Vec<Ins>,
     outputs: Vec<u32>,
 }
@@ -54,42 +113,29 @@ impl Program {
         let reach = g.reachable(roots);
         let mut slot = vec![u32::MAX; len];
         let mut template = Vec::new();
-        let (mut state_loads, mut input_loads, mut time_slot) = (Vec::new(), Vec::new(), None);
-        // constants and leaves
+        // constants, and the exponents of powi and powf, each in a constant slot
+        let mut exp_slot = HashMap::new();
+        let (mut sin_of, mut cos_of) = (HashMap::new(), HashMap::new());
         for id in 0..len {
             if !reach[id] {
                 continue;
             }
-            let s = template.len() as u32;
-            match g.node(id as u32) {
+            let bits = match g.node(id as u32) {
                 Node::Const(b) => {
-                    slot[id] = s;
+                    slot[id] = template.len() as u32;
                     template.push(f64::from_bits(b));
+                    continue;
                 }
-                Node::State(i) => {
-                    slot[id] = s;
-                    template.push(0.0);
-                    state_loads.push((s, i));
+                Node::F(Func::Sin, a) => {
+                    sin_of.insert(a, id as u32);
+                    continue;
                 }
-                Node::Input(k) => {
-                    slot[id] = s;
-                    template.push(0.0);
-                    input_loads.push((s, k));
+                Node::F(Func::Cos, a) => {
+                    cos_of.insert(a, id as u32);
+                    continue;
                 }
-                Node::Time => {
-                    slot[id] = s;
-                    template.push(0.0);
-                    time_slot = Some(s);
-                }
-                _ => {}
-            }
-        }
-        // exponents of powi and powf, each in a constant slot
-        let mut exp_slot = std::collections::HashMap::new();
-        for (id, &r) in reach.iter().enumerate() {
-            let bits = match (r, g.node(id as u32)) {
-                (true, Node::Powf(_, p)) => p,
-                (true, Node::Powi(_, n)) => (n as f64).to_bits(),
+                Node::Powf(_, p) => p,
+                Node::Powi(_, n) => (n as f64).to_bits(),
                 _ => continue,
             };
             exp_slot.entry(bits).or_insert_with(|| {
@@ -97,53 +143,149 @@ impl Program {
                 (template.len() - 1) as u32
             });
         }
-        let base = template.len();
+        // `−(a·b)` is one instruction when the product has no other use
+        let mut users = vec![0u32; len];
+        let mut negated = vec![false; len];
+        for (id, _) in reach.iter().enumerate().filter(|(_, r)| **r) {
+            let node = g.node(id as u32);
+            let (args, k) = node.args();
+            for &a in &args[..k] {
+                users[a as usize] += 1;
+            }
+            if let Node::Neg(m) = node {
+                negated[m as usize] = true;
+            }
+        }
+        for &r in roots {
+            users[r as usize] += 1;
+        }
         let mut ins = Vec::new();
+        let mut fused = vec![false; len];
+        let (mut min_x, mut min_u) = (0, 0);
         for id in 0..len {
-            if !reach[id] {
+            if !reach[id] || slot[id] != u32::MAX {
                 continue;
             }
             let node = g.node(id as u32);
+            let own = template.len() as u32;
+            template.push(0.0);
+            slot[id] = own;
             let (args, k) = node.args();
-            if k == 0 {
-                continue;
-            }
-            let a = slot[args[0] as usize];
+            let a = if k > 0 { slot[args[0] as usize] } else { 0 };
             // a unary instruction reads its operand twice (every `b` is a slot)
             let b = if k == 2 { slot[args[1] as usize] } else { a };
-            let (op, b) = match node {
-                Node::Neg(_) => (Op::Neg, b),
-                Node::Add(..) => (Op::Add, b),
-                Node::Sub(..) => (Op::Sub, b),
-                Node::Mul(..) => (Op::Mul, b),
-                Node::Div(..) => (Op::Div, b),
-                Node::Rem(..) => (Op::Rem, b),
-                Node::Powi(_, n) => (Op::Powi, exp_slot[&(n as f64).to_bits()]),
-                Node::Powf(_, p) => (Op::Powf, exp_slot[&p]),
-                Node::Atan2(..) => (Op::Atan2, b),
-                Node::F(f, _) => (Op::F(f), b),
-                Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time => unreachable!(),
+            let (op, d, a, b) = match node {
+                Node::State(i) => {
+                    min_x = min_x.max(i as usize + 1);
+                    (Op::LoadX, own, i, 0)
+                }
+                Node::Input(k) => {
+                    min_u = min_u.max(k as usize + 1);
+                    (Op::LoadU, own, k, 0)
+                }
+                Node::Time => (Op::LoadT, own, 0, 0),
+                Node::Neg(m) => match g.node(m) {
+                    Node::Mul(p, q) if users[m as usize] == 1 && fused[m as usize] => {
+                        // the product was not emitted: `−(p·q)` in one
+                        (Op::NegMul, own, slot[p as usize], slot[q as usize])
+                    }
+                    _ => (Op::Neg, own, a, b),
+                },
+                Node::Add(..) => (Op::Add, own, a, b),
+                Node::Sub(..) => (Op::Sub, own, a, b),
+                Node::Mul(..) => (Op::Mul, own, a, b),
+                Node::Div(..) => (Op::Div, own, a, b),
+                Node::Rem(..) => (Op::Rem, own, a, b),
+                Node::Powi(_, n) => (Op::Powi, own, a, exp_slot[&(n as f64).to_bits()]),
+                Node::Powf(_, p) => (Op::Powf, own, a, exp_slot[&p]),
+                Node::Atan2(..) => (Op::Atan2, own, a, b),
+                Node::F(f @ (Func::Sin | Func::Cos), arg) => {
+                    let other = if f == Func::Sin { &cos_of } else { &sin_of };
+                    match other.get(&arg) {
+                        Some(&o) => {
+                            // the other one of `sin a`, `cos a` gets its slot now and
+                            // both are computed by one `sin_cos`
+                            let os = template.len() as u32;
+                            template.push(0.0);
+                            slot[o as usize] = os;
+                            if f == Func::Sin {
+                                (Op::SinCos, own, a, os)
+                            } else {
+                                (Op::SinCos, os, a, own)
+                            }
+                        }
+                        None => (Op::func(f), own, a, b),
+                    }
+                }
+                Node::F(f, _) => (Op::func(f), own, a, b),
+                Node::Const(_) => unreachable!(),
             };
-            let own = (base + ins.len()) as u32;
-            assert!(a < own && b < own, "symbolic: operands must precede their use");
-            slot[id] = own;
-            ins.push(Ins { op, a, b });
+            if let Node::Mul(..) = node {
+                // a product whose one user is a negation is left to that negation
+                if users[id] == 1 && negated[id] {
+                    fused[id] = true;
+                    template.pop();
+                    slot[id] = u32::MAX - 1;
+                    continue;
+                }
+            }
+            ins.push(Ins { op, d, a, b });
         }
-        template.resize(base + ins.len(), 0.0);
         let outputs = roots.iter().map(|&r| slot[r as usize]).collect();
-        let min_x = state_loads.iter().map(|&(_, i)| i as usize + 1).max().unwrap_or(0);
-        let min_u = input_loads.iter().map(|&(_, k)| k as usize + 1).max().unwrap_or(0);
-        Program {
+        let p = Program {
             template,
-            state_loads,
-            input_loads,
-            time_slot,
             min_x,
             min_u,
-            base,
             ins,
             outputs,
+        };
+        p.check();
+        p
+    }
+
+    /// Every operand is written before it is read and every slot is in range: what
+    /// `run`'s unchecked accesses rely on.
+    fn check(&self) {
+        let n = self.template.len();
+        // constants are in place; every other slot is some instruction's destination
+        let mut written = vec![true; n];
+        for i in &self.ins {
+            for s in [Some(i.d), (i.op == Op::SinCos).then_some(i.b)].into_iter().flatten() {
+                assert!((s as usize) < n, "symbolic: slot out of range");
+                written[s as usize] = false;
+            }
         }
+        for i in &self.ins {
+            let reads: &[u32] = match i.op {
+                Op::LoadX | Op::LoadU | Op::LoadT => &[],
+                Op::SinCos => std::slice::from_ref(&i.a),
+                _ => &[i.a, i.b],
+            };
+            for &r in reads {
+                assert!(
+                    (r as usize) < n && written[r as usize],
+                    "symbolic: operand read before it is written"
+                );
+            }
+            assert!((i.d as usize) < n, "symbolic: slot out of range");
+            written[i.d as usize] = true;
+            if i.op == Op::SinCos {
+                assert!((i.b as usize) < n, "symbolic: slot out of range");
+                written[i.b as usize] = true;
+            }
+        }
+        for &o in &self.outputs {
+            assert!(
+                (o as usize) < n && written[o as usize],
+                "symbolic: output never written"
+            );
+        }
+    }
+
+    /// The constant template, the instructions and the output slots.
+    #[cfg_attr(not(feature = "jit"), allow(dead_code))]
+    pub(super) fn parts(&self) -> (&[f64], &[Ins], &[u32]) {
+        (&self.template, &self.ins, &self.outputs)
     }
 
     /// Number of instructions.
@@ -166,48 +308,66 @@ impl Program {
             self.template.len(),
             "Program::run: scratch of the wrong size"
         );
-        if x.len() >= self.min_x && u.len() >= self.min_u {
-            for &(s, i) in &self.state_loads {
-                // SAFETY: every state index is below `min_x ≤ x.len()`, every slot below
-                // `base ≤ vals.len()` (checked in `new`)
-                unsafe { *vals.get_unchecked_mut(s as usize) = *x.get_unchecked(i as usize) };
-            }
-            for &(s, k) in &self.input_loads {
-                vals[s as usize] = u[k as usize];
-            }
-        } else {
-            for &(s, i) in &self.state_loads {
-                vals[s as usize] = x.get(i as usize).copied().unwrap_or(f64::NAN);
-            }
-            for &(s, k) in &self.input_loads {
-                vals[s as usize] = u.get(k as usize).copied().unwrap_or(f64::NAN);
-            }
-        }
-        if let Some(s) = self.time_slot {
-            vals[s as usize] = t;
+        if x.len() < self.min_x || u.len() < self.min_u {
+            // pad what is missing with NaN (a misuse, so the allocation does not matter)
+            let pad = |v: &[f64], n: usize| {
+                let mut p = v.to_vec();
+                p.resize(n.max(v.len()), f64::NAN);
+                p
+            };
+            return self.run(t, &pad(x, self.min_x), &pad(u, self.min_u), vals);
         }
         let p = vals.as_mut_ptr();
-        // SAFETY: `new` gives every instruction `k` operands `a`, `b` below its own slot
-        // `base + k` (ids are a topological order), and `vals` has `base + ins.len()`
-        // slots (asserted above), so every pointer stays in `vals`.
+        let (xp, up) = (x.as_ptr(), u.as_ptr());
+        // SAFETY: `check` (run by `new`) asserted that every slot `d`, `a`, `b` is below
+        // `template.len() = vals.len()` (asserted above); every state index is below
+        // `min_x ≤ x.len()` and every input index below `min_u ≤ u.len()` (checked above).
         unsafe {
-            let mut q = p.add(self.base);
             for ins in &self.ins {
-                let a = *p.add(ins.a as usize);
-                let b = *p.add(ins.b as usize);
-                *q = match ins.op {
-                    Op::Neg => -a,
-                    Op::Add => a + b,
-                    Op::Sub => a - b,
-                    Op::Mul => a * b,
-                    Op::Div => a / b,
-                    Op::Rem => a % b,
-                    Op::Powi => a.powi(b as i32),
-                    Op::Powf => a.powf(b),
-                    Op::Atan2 => a.atan2(b),
-                    Op::F(f) => f.eval(a),
+                let d = p.add(ins.d as usize);
+                let a = || *p.add(ins.a as usize);
+                let b = || *p.add(ins.b as usize);
+                *d = match ins.op {
+                    Op::LoadX => *xp.add(ins.a as usize),
+                    Op::LoadU => *up.add(ins.a as usize),
+                    Op::LoadT => t,
+                    Op::Neg => -a(),
+                    Op::Add => a() + b(),
+                    Op::Sub => a() - b(),
+                    Op::Mul => a() * b(),
+                    Op::NegMul => -(a() * b()),
+                    Op::Div => a() / b(),
+                    Op::Rem => a() % b(),
+                    Op::Powi => a().powi(b() as i32),
+                    Op::Powf => a().powf(b()),
+                    Op::Atan2 => a().atan2(b()),
+                    Op::SinCos => {
+                        let (s, c) = a().sin_cos();
+                        *p.add(ins.b as usize) = c;
+                        s
+                    }
+                    Op::Sin => a().sin(),
+                    Op::Cos => a().cos(),
+                    Op::Tan => a().tan(),
+                    Op::Exp => a().exp(),
+                    Op::ExpM1 => a().exp_m1(),
+                    Op::Ln => a().ln(),
+                    Op::Ln1p => a().ln_1p(),
+                    Op::Sqrt => a().sqrt(),
+                    Op::Cbrt => a().cbrt(),
+                    Op::Abs => a().abs(),
+                    Op::Sign => Func::Sign.eval(a()),
+                    Op::Asin => a().asin(),
+                    Op::Acos => a().acos(),
+                    Op::Atan => a().atan(),
+                    Op::Sinh => a().sinh(),
+                    Op::Cosh => a().cosh(),
+                    Op::Tanh => a().tanh(),
+                    Op::Asinh => a().asinh(),
+                    Op::Acosh => a().acosh(),
+                    Op::Atanh => a().atanh(),
+                    Op::Trunc => a().trunc(),
                 };
-                q = q.add(1);
             }
         }
     }
@@ -216,6 +376,11 @@ impl Program {
 /// `J = ∂f/∂x` compiled from a traced model: its pattern and a [`Program`] whose outputs
 /// are the pattern's non-zeros in order. Evaluates into the sparse values (O(non-zeros)
 /// for a local model) or into a dense matrix.
+///
+/// Programs of up to [`MAX_NATIVE_INSTRUCTIONS`](super::jit::MAX_NATIVE_INSTRUCTIONS)
+/// instructions are also translated into machine code (Cranelift) when the Jacobian is
+/// compiled; evaluation then runs that code, which gives the interpreter's values bit for
+/// bit. [`interpreted`](Self::interpreted) drops it, [`is_native`](Self::is_native) tells.
 ///
 /// ```
 /// use reckon::{model, symbolic, sparse::SparseJacobian};
@@ -226,6 +391,10 @@ impl Program {
 /// jac.eval(0.0, &[0.5, 0.0], &[], &mut v);
 /// // CSC order: (1, 0) = −cos x₀, then (0, 1) = 1
 /// assert_eq!(v, vec![-0.5f64.cos(), 1.0]);
+/// // the interpreter gives the same values, bit for bit
+/// let mut w = vec![0.0; 2];
+/// jac.clone().interpreted().eval(0.0, &[0.5, 0.0], &[], &mut w);
+/// assert_eq!(v, w);
 /// ```
 #[derive(Debug, Clone)]
 pub struct CompiledJacobian {
@@ -234,23 +403,61 @@ pub struct CompiledJacobian {
     vals: Vec<f64>,
     /// `(slot, i + n·j)` of every non-zero, for the dense matrix.
     dense: Vec<(u32, usize)>,
+    /// Native code: function 0 writes the CSC values, function 1 (for `n ≤ NATIVE_DENSE`)
+    /// the whole dense matrix.
+    native: Option<Arc<Native>>,
+    /// Room for the CSC values when a dense matrix is filled from function 0.
+    csc: Vec<f64>,
 }
+
+/// Up to this many states the native code writes the whole dense matrix, zeros included.
+const NATIVE_DENSE: usize = 32;
 
 impl CompiledJacobian {
     pub(crate) fn new(pattern: Pattern, program: Program) -> Self {
         let vals = program.scratch();
         let n = pattern.n();
-        let dense = pattern
+        let dense: Vec<(u32, usize)> = pattern
             .entries()
             .enumerate()
             .map(|(k, (i, j))| (program.outputs[k], i + n * j))
             .collect();
+        let mut layouts = vec![Layout {
+            offsets: (0..pattern.nnz()).collect(),
+            zeros: Vec::new(),
+        }];
+        if n <= NATIVE_DENSE {
+            let mut nz = vec![false; n * n];
+            for &(_, d) in &dense {
+                nz[d] = true;
+            }
+            layouts.push(Layout {
+                offsets: dense.iter().map(|&(_, d)| d).collect(),
+                zeros: (0..n * n).filter(|&d| !nz[d]).collect(),
+            });
+        }
+        let native = jit::compile(&program, &layouts);
         CompiledJacobian {
+            csc: vec![0.0; if native.is_some() { pattern.nnz() } else { 0 }],
             pattern,
             program,
             vals,
             dense,
+            native,
         }
+    }
+
+    /// The same Jacobian evaluated by the interpreter only (to compare, or to save the
+    /// native code's memory).
+    pub fn interpreted(mut self) -> Self {
+        self.native = None;
+        self.csc = Vec::new();
+        self
+    }
+
+    /// Whether evaluation runs native code.
+    pub fn is_native(&self) -> bool {
+        self.native.is_some()
     }
 
     /// The instructions one evaluation runs.
@@ -258,17 +465,47 @@ impl CompiledJacobian {
         self.program.len()
     }
 
+    /// Run native function `k` into `out`, or return `false` if there is none.
+    #[inline]
+    fn native(&self, k: usize, t: f64, x: &[f64], u: &[f64], out: &mut [f64]) -> bool {
+        let Some(code) = &self.native else {
+            return false;
+        };
+        if x.len() < self.program.min_x || u.len() < self.program.min_u {
+            // the interpreter pads missing operands with NaN
+            return false;
+        }
+        // SAFETY: the code reads `x[i]` for `i < min_x ≤ x.len()` and `u[k]` for
+        // `k < min_u ≤ u.len()` (checked above), and writes `out[d]` for the layout's
+        // offsets: `d < nnz` for function 0 and `d < n²` for function 1, which the callers
+        // give as `out.len()` (asserted there).
+        unsafe { code.get(k)(x.as_ptr(), u.as_ptr(), t, out.as_mut_ptr()) };
+        true
+    }
+
     /// `jac ← J(t, x, u)` as a dense column-major `n × n` array (`jac[i + n·j] = ∂fᵢ/∂xⱼ`).
     pub fn eval_dense(&mut self, t: f64, x: &[f64], u: &[f64], jac: &mut [f64]) {
         let n = self.pattern.n();
         assert_eq!(jac.len(), n * n, "eval_dense: jac must hold n² values");
-        self.program.run(t, x, u, &mut self.vals);
-        jac.fill(0.0);
-        for &(s, d) in &self.dense {
-            // SAFETY: `d = i + n·j < n² = jac.len()` (asserted above) and `s` is a slot of
-            // the program, below `vals.len()`
-            unsafe { *jac.get_unchecked_mut(d) = *self.vals.get_unchecked(s as usize) };
+        if n <= NATIVE_DENSE && self.native(1, t, x, u, jac) {
+            return;
         }
+        let mut csc = std::mem::take(&mut self.csc);
+        let done = self.native(0, t, x, u, &mut csc);
+        jac.fill(0.0);
+        if done {
+            for (k, &(_, d)) in self.dense.iter().enumerate() {
+                jac[d] = csc[k];
+            }
+        } else {
+            self.program.run(t, x, u, &mut self.vals);
+            for &(s, d) in &self.dense {
+                // SAFETY: `d = i + n·j < n² = jac.len()` (asserted above) and `s` is a slot
+                // of the program, below `vals.len()`
+                unsafe { *jac.get_unchecked_mut(d) = *self.vals.get_unchecked(s as usize) };
+            }
+        }
+        self.csc = csc;
     }
 }
 
@@ -277,6 +514,14 @@ impl SparseJacobian for CompiledJacobian {
         &self.pattern
     }
     fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) {
+        assert_eq!(
+            values.len(),
+            self.pattern.nnz(),
+            "eval: values must hold one value per non-zero"
+        );
+        if self.native(0, t, x, u, values) {
+            return;
+        }
         self.program.run(t, x, u, &mut self.vals);
         for (v, &s) in values.iter_mut().zip(&self.program.outputs) {
             *v = self.vals[s as usize];

@@ -35,6 +35,11 @@
 mod compile;
 mod diff;
 mod graph;
+#[cfg(feature = "jit")]
+pub mod jit;
+#[cfg(not(feature = "jit"))]
+#[path = "jit_off.rs"]
+pub mod jit;
 mod print;
 mod sym;
 

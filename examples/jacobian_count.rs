@@ -1,5 +1,5 @@
 //! Run one Jacobian evaluation `reps` times, for instruction counts under callgrind:
-//! `valgrind --tool=callgrind target/release/examples/jacobian_count <model> <numdual|symbolic> <reps>`
+//! `valgrind --tool=callgrind target/release/examples/jacobian_count <model> <numdual|symbolic|interpreted> <reps>`
 //! with model `unicycle`, `carlike` or `robertson`; per evaluation = (N(reps) − N(1))/(reps − 1).
 use nalgebra::{SMatrix, SVector, vector};
 use reckon::models::{carlike, unicycle};
@@ -23,6 +23,9 @@ fn run<const N: usize>(
         }
     } else {
         let mut c = symbolic::trace(f, N).unwrap().compile_jacobian();
+        if how == "interpreted" {
+            c = c.interpreted();
+        }
         let mut j = vec![0.0; N * N];
         for _ in 0..reps {
             c.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut j);

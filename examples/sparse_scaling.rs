@@ -27,7 +27,12 @@
 //! which the trace of the body alone is 1.7 GiB and 8.6 s). `versus` at 5 digits: Bdf
 //! dense/sparse 56–94×; diffsol's sparse BDF takes 0.9–2.8× reckon's sparse time (runs on
 //! a loaded machine vary that much), and the traced J's trace + compile (3 ms) is in
-//! every reckon solve.
+//! every reckon solve. Re-measured after `problems::brusselator_y0` took the reference
+//! values' amplitude ½ (two runs, 2 Dec 2026): Bdf at 1e-5 (5.5 digits) sparse hand
+//! 8.5–13 ms, coloured 9.4–14 ms, traced 12.5–14 ms (the model now keeps its compiled J,
+//! so only the first solve traces), dense hand 1.06–1.25 s, dense num-dual 0.97–0.98 s:
+//! 70–125×; Rodas5P sparse at 5.6e-6 18–20 ms; diffsol at 1.8e-6 19–22 ms, 1.4–2.5×
+//! reckon's sparse time; the reference pair agrees to 10.2 digits.
 
 #[path = "../tests/common/bruss.rs"]
 mod bruss;

@@ -98,6 +98,17 @@ pub enum Error {
         /// What the body did that a trace cannot follow.
         reason: String,
     },
+    /// [`Solution::at`](crate::Solution::at) was asked for a state between the kept
+    /// points of a run that kept no dense output: the polynomials are kept only when
+    /// [`Options::dense`](crate::Options::dense) is on (it is off by default).
+    #[error(
+        "no dense output was kept, so the state at t = {} cannot be interpolated: set Options::dense(true) before solving",
+        Brief(*.t)
+    )]
+    NoDenseOutput {
+        /// The time asked for.
+        t: f64,
+    },
     /// An option, a span, a dimension or another input was invalid.
     #[error("invalid {what}: {reason}")]
     InvalidInput {

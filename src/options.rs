@@ -44,7 +44,10 @@ pub struct Options {
     pub max_steps: usize,
     /// Extra times the integrator must land on exactly (besides control breakpoints).
     pub breakpoints: Vec<f64>,
-    /// Keep dense output so that [`Solution::at`](crate::Solution::at) works (default true).
+    /// Keep each step's dense polynomial in the [`Solution`](crate::Solution) so that
+    /// [`Solution::at`](crate::Solution::at) can interpolate anywhere in the span
+    /// (default false: without it `at` returns [`Error::NoDenseOutput`]). Events and
+    /// [`Save::At`] use the polynomials during the run and need no kept dense output.
     pub dense: bool,
     /// Run the stiffness test every this many accepted steps (default 1000, as `dopri5.f`);
     /// `None` switches it off.
@@ -104,15 +107,15 @@ pub enum LinearSolver {
 /// step (the default), at every k-th one, at the end only, or at given output times
 /// (`t_eval` in scipy, `saveat` in DifferentialEquations.jl) evaluated from each step's
 /// dense polynomial as the run passes them, without storing the polynomials.
-/// [`Options::dense`] is independent: it keeps the polynomials for
-/// [`Solution::at`](crate::Solution::at).
+/// [`Options::dense`] (off by default) is independent: it keeps the polynomials for
+/// [`Solution::at`](crate::Solution::at); `At(times)` works without it.
 ///
 /// ```
 /// use reckon::{model, methods::Dopri5, options::Save, Options, Problem};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
 /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
-/// let o = Options::default().rtol(1e-10).atol(1e-12).dense(false);
+/// let o = Options::default().rtol(1e-10).atol(1e-12); // dense output off (the default)
 /// let s = p.solve(Dopri5::default(), &o.clone().save(Save::At(vec![0.5, 1.0, 1.5]))).unwrap();
 /// assert_eq!(s.t, [0.5, 1.0, 1.5]);
 /// assert!((s.x[1][0] - (-1.0f64).exp()).abs() < 1e-9);
@@ -144,7 +147,7 @@ impl Default for Options {
             h_max: f64::INFINITY,
             max_steps: 100_000,
             breakpoints: Vec::new(),
-            dense: true,
+            dense: false,
             stiffness_check: Some(1000),
             max_step_failures: 10,
             save: Save::Steps,
@@ -193,7 +196,23 @@ impl Options {
         self.breakpoints.extend(b);
         self
     }
-    /// Keep or drop dense output.
+    /// Keep (`true`) or drop (`false`, the default) each step's dense polynomial: with
+    /// it, [`Solution::at`](crate::Solution::at) evaluates `x(t₀ + θh) = Σ_j c_j θʲ` anywhere in
+    /// the span; without it, `at` between kept points is [`Error::NoDenseOutput`].
+    ///
+    /// ```
+    /// use reckon::{model, methods::Dopri5, Error, Options, Problem};
+    /// use nalgebra::vector;
+    /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+    /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
+    /// assert!(!Options::default().dense);
+    /// let lean = p.solve(Dopri5::default(), &Options::default()).unwrap();
+    /// assert!(lean.dense_segments().is_empty());
+    /// assert!(matches!(lean.at(0.7), Err(Error::NoDenseOutput { t }) if t == 0.7));
+    /// let o = Options::default().rtol(1e-9).atol(1e-12).dense(true);
+    /// let sol = p.solve(Dopri5::default(), &o).unwrap();
+    /// assert!((sol.at(0.7).unwrap()[0] - (-0.7f64).exp()).abs() < 1e-8);
+    /// ```
     pub fn dense(mut self, on: bool) -> Self {
         self.dense = on;
         self

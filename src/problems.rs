@@ -165,9 +165,20 @@ pub fn lorenz_y0() -> Vector3<f64> {
     Vector3::new(1.0, 1.0, 1.0)
 }
 
-/// The 1-D Brusselator with `n` grid points (HNW ODE II §IV.1, α = 1/50):
-/// state `(u₁, v₁, …, u_n, v_n)`, `u_i' = 1 + u_i²v_i − 4u_i + α(n+1)²(u_{i−1} − 2u_i + u_{i+1})`,
-/// `v_i' = 3u_i − u_i²v_i + α(n+1)²(v_{i−1} − 2v_i + v_{i+1})`, boundary values `u = 1, v = 3`.
+/// The 1-D Brusselator with `n` grid points (HNW ODE II §IV.1, (1.6′), BRUSS; A = 1,
+/// B = 3, α = 1/50): state `(u₁, v₁, …, u_n, v_n)`,
+/// `u_i' = 1 + u_i²v_i − 4u_i + α(n+1)²(u_{i−1} − 2u_i + u_{i+1})`,
+/// `v_i' = 3u_i − u_i²v_i + α(n+1)²(v_{i−1} − 2v_i + v_{i+1})`, boundary values
+/// `u₀ = u_{n+1} = 1`, `v₀ = v_{n+1} = 3`, on `t ∈ [0, 10]` from [`brusselator_y0`].
+///
+/// ```
+/// use reckon::{problems::{brusselator, brusselator_y0}, System};
+/// let (f, y0) = (brusselator(3), brusselator_y0(3));
+/// let mut d = y0.clone();
+/// f.rhs(0.0, &y0, &[], &mut d);
+/// // v₂ = 3 between v₁ = v₃ = 3: no diffusion, v₂' = 3u₂ − 3u₂² at u₂ = 1 (sin π = 0)
+/// assert!((y0[2] - 1.0).abs() < 1e-15 && d[3].abs() < 1e-13);
+/// ```
 pub fn brusselator(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
     let c = (n as f64 + 1.0).powi(2) / 50.0;
     crate::model!(|_, y: [S; Dyn]| {
@@ -190,15 +201,47 @@ pub fn brusselator(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
     })
 }
 
-/// Brusselator initial state: `u_i = 1 + sin(2πx_i)`, `v_i = 3`, `x_i = i/(n+1)`, as
-/// HNW ODE II §IV.1 (1.6′) states it (and DiffEqProblemLibrary's `prob_ode_brusselator_1d`
-/// copies it, "Page 6"), on its span `t ∈ [0, 10]`. Some widely copied reference values
-/// use the amplitude ½ instead; reckon keeps the book's.
+/// [`brusselator`]'s initial state in the convention of the widely used reference
+/// values: `u_i = 1 + ½·sin(2πx_i)`, `v_i = 3`, `x_i = i/(n+1)`.
+///
+/// HNW ODE II §IV.1 (1.6′) prints `u_i = 1 + sin(2πx_i)` (amplitude 1, kept as
+/// [`brusselator_y0_book`]), but the reference values that are widely copied for BRUSS
+/// were computed with amplitude ½ (the shared `REFERENCES.md`, note 3); reckon follows
+/// them, so that its end state can be checked against published and independently
+/// computed numbers (`tests/sparse.rs` holds scipy Radau's at `t = 10`, see
+/// `docs/references.md`).
+///
+/// ```
+/// let y0 = reckon::problems::brusselator_y0(3); // x = ¼, ½, ¾
+/// assert_eq!(y0.len(), 6);
+/// assert!((y0[0] - 1.5).abs() < 1e-15 && (y0[4] - 0.5).abs() < 1e-15);
+/// assert_eq!((y0[1], y0[3], y0[5]), (3.0, 3.0, 3.0));
+/// ```
 pub fn brusselator_y0(n: usize) -> nalgebra::DVector<f64> {
+    brusselator_y0_amplitude(n, 0.5)
+}
+
+/// [`brusselator`]'s initial state as HNW ODE II §IV.1 (1.6′) prints it:
+/// `u_i = 1 + sin(2πx_i)`, `v_i = 3`, `x_i = i/(n+1)` (amplitude 1, which
+/// DiffEqProblemLibrary's `prob_ode_brusselator_1d` copies, "Page 6"). The widely copied
+/// reference values use amplitude ½ instead ([`brusselator_y0`]); this one is kept for
+/// comparison with the book's text and with codes that follow it.
+///
+/// ```
+/// let y0 = reckon::problems::brusselator_y0_book(3); // x = ¼, ½, ¾
+/// assert!((y0[0] - 2.0).abs() < 1e-15 && y0[4].abs() < 1e-15);
+/// assert_eq!(y0[1], 3.0);
+/// ```
+pub fn brusselator_y0_book(n: usize) -> nalgebra::DVector<f64> {
+    brusselator_y0_amplitude(n, 1.0)
+}
+
+/// `u_i = 1 + a·sin(2πx_i)`, `v_i = 3`, `x_i = i/(n+1)`, interleaved `(u₁, v₁, …)`.
+fn brusselator_y0_amplitude(n: usize, a: f64) -> nalgebra::DVector<f64> {
     nalgebra::DVector::from_fn(2 * n, |k, _| {
         let x = (k / 2 + 1) as f64 / (n as f64 + 1.0);
         if k % 2 == 0 {
-            1.0 + (2.0 * std::f64::consts::PI * x).sin()
+            1.0 + a * (2.0 * std::f64::consts::PI * x).sin()
         } else {
             3.0
         }

@@ -158,28 +158,47 @@ where
         self.t.len() * 8 + self.x.len() * 8 * n + self.dense.iter().map(seg).sum::<usize>()
     }
 
-    /// The dense segments (one per accepted step), empty when dense output was off.
+    /// The dense segments (one per accepted step, each `x(t₀ + θh) = Σ_j c_j θʲ`), empty
+    /// unless [`Options::dense(true)`](crate::Options::dense) was set.
+    ///
+    /// ```
+    /// use reckon::{model, methods::Dopri5, Options, Problem};
+    /// use nalgebra::vector;
+    /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+    /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
+    /// assert!(p.solve(Dopri5::default(), &Options::default()).unwrap().dense_segments().is_empty());
+    /// let s = p.solve(Dopri5::default(), &Options::default().dense(true)).unwrap();
+    /// assert_eq!(s.dense_segments().len(), s.t.len() - 1);
+    /// ```
     pub fn dense_segments(&self) -> &[DenseSegment<D>] {
         &self.dense
     }
 
-    /// The state at any `t` inside the span, from the method's dense output
-    /// (4th order for RK45, linear for the Euler methods, cubic Hermite for exact flows).
+    /// The state at any `t` inside the span, `x(t₀ + θh) = Σ_j c_j θʲ` on the step that
+    /// holds `t`, from the method's dense output (4th order for RK45, linear for the
+    /// Euler methods, cubic Hermite for exact flows). The polynomials are kept only with
+    /// [`Options::dense(true)`](crate::Options::dense); a run without them (the default)
+    /// returns [`Error::NoDenseOutput`], which names that fix.
     ///
     /// ```
-    /// use reckon::{model, Options, Problem, methods::Dopri5};
+    /// use reckon::{model, Error, Options, Problem, methods::Dopri5};
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
-    /// let sol = Problem::new(&f, vector![1.0], (0.0, 2.0)).solve(Dopri5::default(), &Options::default().rtol(1e-9).atol(1e-12)).unwrap();
+    /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
+    /// let sol = p.solve(Dopri5::default(), &Options::default().rtol(1e-9).atol(1e-12).dense(true)).unwrap();
     /// assert!((sol.at(0.7).unwrap()[0] - (-0.7f64).exp()).abs() < 1e-8); // between steps
     /// assert!(sol.at(2.5).is_err()); // outside the span
+    /// let lean = p.solve(Dopri5::default(), &Options::default()).unwrap(); // dense off
+    /// let e = lean.at(0.7).unwrap_err();
+    /// assert_eq!(e, Error::NoDenseOutput { t: 0.7 });
+    /// assert!(e.to_string().contains("Options::dense(true)"));
     /// ```
     pub fn at(&self, t: f64) -> Result<OVector<f64, D>> {
         if self.dense.is_empty() {
             return if self.t.len() == 1 && t == self.t[0] {
                 Ok(self.x[0].clone())
             } else {
-                Err(Error::invalid("t", "dense output was not kept (Options::dense)"))
+                Err(Error::NoDenseOutput { t })
             };
         }
         let (a, b) = (self.t[0], *self.t.last().unwrap_or(&self.t[0]));

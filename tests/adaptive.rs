@@ -39,7 +39,9 @@ fn dense_output_is_fourth_order_accurate_between_steps() {
     let errs: Vec<f64> = hs
         .iter()
         .map(|&h| {
-            let sol = p.solve(Dopri5::default(), &Options::default().fixed(h)).unwrap();
+            let sol = p
+                .solve(Dopri5::default(), &Options::default().fixed(h).dense(true))
+                .unwrap();
             (0..20)
                 .map(|k| {
                     let t = (k as f64 + 0.5) * h; // first 20 step midpoints
@@ -54,7 +56,7 @@ fn dense_output_is_fourth_order_accurate_between_steps() {
         "dense local error order {p_obs}, errors {errs:?}"
     );
     // the interpolant reproduces the step ends
-    let sol = p.solve(Dopri5::default(), &Options::default()).unwrap();
+    let sol = p.solve(Dopri5::default(), &Options::default().dense(true)).unwrap();
     for (t, x) in sol.t.iter().zip(&sol.x) {
         assert!((sol.at(*t).unwrap() - x).amax() < 1e-14);
     }

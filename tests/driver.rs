@@ -71,7 +71,10 @@ fn backward_integration_returns_to_start() {
         .solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap();
     let back = Problem::new(rotation_decay(), *fwd.last().1, (2.0, 0.0))
-        .solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .solve(
+            Dopri5::default(),
+            &Options::default().rtol(1e-12).atol(1e-12).dense(true),
+        )
         .unwrap();
     assert_eq!(back.last().0, 0.0);
     assert!((back.last().1 - x0).amax() < 1e-10);

@@ -427,10 +427,16 @@ fn hires_published_end_state() {
 fn dense_output_matches_tight_solution() {
     let p = Problem::new(van_der_pol(5.0), vector![2.0, 0.0], (0.0, 10.0));
     let tight = p
-        .solve(Dopri5::default(), &Options::default().rtol(1e-13).atol(1e-13))
+        .solve(
+            Dopri5::default(),
+            &Options::default().rtol(1e-13).atol(1e-13).dense(true),
+        )
         .unwrap();
     let sol = p
-        .solve(Rodas5P::default(), &Options::default().rtol(1e-7).atol(1e-9))
+        .solve(
+            Rodas5P::default(),
+            &Options::default().rtol(1e-7).atol(1e-9).dense(true),
+        )
         .unwrap();
     assert_eq!(sol.dense_segments().len(), sol.t.len() - 1);
     let grid = sol

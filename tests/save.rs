@@ -4,7 +4,7 @@
 
 use nalgebra::{SVector, vector};
 use reckon::methods::{Bdf, Dopri5, ExplicitEuler, Rodas5P};
-use reckon::problems::{lorenz, van_der_pol};
+use reckon::problems::{brusselator, brusselator_y0, lorenz, van_der_pol};
 use reckon::{Error, Event, Options, Problem, Save, StepSize, model};
 
 #[test]
@@ -49,11 +49,8 @@ fn output_times_from_the_dense_polynomial() {
     let exact = |t: f64| (-t - t.sin()).exp();
     let times: Vec<f64> = (0..=40).map(|i| 0.1 * i as f64).collect();
     let p = Problem::new(&f, vector![1.0], (0.0, 4.0));
-    let o = Options::default()
-        .rtol(1e-10)
-        .atol(1e-12)
-        .dense(false)
-        .save(Save::At(times.clone()));
+    // dense output off (the default): the output times need no kept polynomials
+    let o = Options::default().rtol(1e-10).atol(1e-12).save(Save::At(times.clone()));
     // (method, largest error at the output times)
     for (name, s, tol) in [
         ("rk45", p.solve(Dopri5::default(), &o).unwrap(), 1e-9),
@@ -74,7 +71,10 @@ fn output_times_from_the_dense_polynomial() {
     }
     // the same as interpolating a run that kept its dense output, bit for bit
     let d = p
-        .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .solve(
+            Dopri5::default(),
+            &Options::default().rtol(1e-10).atol(1e-12).dense(true),
+        )
         .unwrap();
     let s = p.solve(Dopri5::default(), &o).unwrap();
     for (t, x) in s.t.iter().zip(&s.x) {
@@ -129,6 +129,8 @@ fn output_times_backward_and_with_a_terminal_event() {
         )
         .unwrap();
     assert_eq!(&s.t[..2], [0.5, 1.0]);
+    assert_eq!(s.events.len(), 1, "the event is located without kept dense output");
+    assert!(s.dense_segments().is_empty());
     assert_eq!(s.t.len(), 3);
     assert!((s.t[2] - std::f64::consts::FRAC_PI_2).abs() < 1e-9, "{}", s.t[2]);
     assert!(s.x[2][0].abs() < 1e-9);
@@ -152,6 +154,144 @@ fn invalid_save_options_are_typed_errors() {
                 assert!(reason.contains(needle), "{save:?}: {reason}");
             }
             other => panic!("{save:?}: {other:?}"),
+        }
+    }
+}
+
+/// Dense output is kept only when asked (`Options::dense`, default false): a default
+/// solve keeps the step ends and nothing else, `at` between them is the typed
+/// `Error::NoDenseOutput` naming the fix, and events still work (they use each step's
+/// polynomial during the run).
+#[test]
+fn default_solve_keeps_no_dense_output() {
+    assert!(!Options::default().dense);
+    let p = Problem::new(lorenz(), vector![1.0, 1.0, 1.0], (0.0, 5.0));
+    let o = Options::default().rtol(1e-8).atol(1e-8);
+    let s = p.solve(Dopri5::default(), &o).unwrap();
+    let n = s.t.len();
+    assert!(s.dense_segments().is_empty());
+    assert_eq!(s.kept_bytes(), n * 8 + n * 3 * 8, "times and states only");
+    let tm = 0.5 * (s.t[1] + s.t[2]);
+    let e = s.at(tm).unwrap_err();
+    assert_eq!(e, Error::NoDenseOutput { t: tm });
+    assert!(e.to_string().contains("set Options::dense(true)"), "{e}");
+    // asked for: one polynomial of 5 coefficients (DOPRI5's dense output) per step
+    let d = p.solve(Dopri5::default(), &o.clone().dense(true)).unwrap();
+    assert_eq!(d.t, s.t, "the same steps");
+    assert_eq!(d.x, s.x);
+    assert_eq!(d.dense_segments().len(), n - 1);
+    assert_eq!(d.kept_bytes(), s.kept_bytes() + (n - 1) * (24 + 5 * 3 * 8));
+    assert!(d.at(tm).is_ok());
+    // every method and a run with events: nothing kept by default
+    let q = Problem::new(van_der_pol(5.0), vector![2.0, 0.0], (0.0, 20.0))
+        .event(Event::new(|_t, x: &SVector<f64, 2>| x[0]));
+    for (name, s) in [
+        ("rk45", q.solve(Dopri5::default(), &o).unwrap()),
+        ("bdf", q.solve(Bdf::default(), &o).unwrap()),
+        ("rodas5p", q.solve(Rodas5P::default(), &o).unwrap()),
+        (
+            "euler",
+            q.solve(ExplicitEuler, &Options::default().fixed(1e-3)).unwrap(),
+        ),
+    ] {
+        assert!(s.dense_segments().is_empty(), "{name}");
+        assert!(s.events.len() >= 2, "{name}: x₀ crosses zero: {:?}", s.events.len());
+        assert!(matches!(s.at(5.0), Err(Error::NoDenseOutput { .. })), "{name}");
+    }
+    // the memory it saves on BRUSS 1-D (1 000 states): DOPRI5 keeps 5 coefficient
+    // vectors per step besides the step end, six times the data
+    let b = Problem::new(brusselator(500), brusselator_y0(500), (0.0, 0.1));
+    let o = Options::default().rtol(1e-4).atol(1e-4);
+    let lean = b.solve(Dopri5::default(), &o).unwrap();
+    let full = b.solve(Dopri5::default(), &o.dense(true)).unwrap();
+    let steps = lean.t.len() - 1;
+    assert_eq!(lean.kept_bytes(), (steps + 1) * (8 + 8000));
+    assert_eq!(full.kept_bytes(), lean.kept_bytes() + steps * (24 + 5 * 8000));
+}
+
+/// `dense(true)` interpolates exactly as the old default (dense output on) did: the
+/// bits below are `Solution::at` on Van der Pol μ = 5 at rtol 1e-8, atol 1e-10 from the
+/// commit before the default changed (1b3d856, `Options::default()` with no `dense`
+/// call), for each method's own dense output.
+#[test]
+fn dense_true_interpolates_as_the_old_default() {
+    let p = Problem::new(van_der_pol(5.0), vector![2.0, 0.0], (0.0, 10.0));
+    let o = Options::default().rtol(1e-8).atol(1e-10).dense(true);
+    let ts = [0.37, 1.5, 4.2, 9.9];
+    let old: [(&str, usize, [u64; 8]); 3] = [
+        (
+            "rk45",
+            363,
+            [
+                0x3fff5865b1129904,
+                0xbfc175023cc5ab45,
+                0x3ffcae64836d835c,
+                0xbfc46fb056d05a4a,
+                0x3ff27f39b24cdd6c,
+                0xbfdbb756c5cf081e,
+                0xbff3325ba6d32a90,
+                0x3fd923ae612ed7fe,
+            ],
+        ),
+        (
+            "bdf",
+            821,
+            [
+                0x3fff5865b10cad4f,
+                0xbfc175023a06b34b,
+                0x3ffcae64835c63aa,
+                0xbfc46fb05736731d,
+                0x3ff27f39ac0a2763,
+                0xbfdbb756e6a89f8d,
+                0xbff3325b9799e6d0,
+                0x3fd923ae9aa295d7,
+            ],
+        ),
+        (
+            "rodas5p",
+            397,
+            [
+                0x3fff5865b1139c39,
+                0xbfc175023d1a82a2,
+                0x3ffcae64836fdf93,
+                0xbfc46fb05704c684,
+                0x3ff27f39b27ae216,
+                0xbfdbb756c4becff2,
+                0xbff3325ba9ce8338,
+                0x3fd923ae5583e6da,
+            ],
+        ),
+    ];
+    for (name, segments, bits) in old {
+        let s = match name {
+            "rk45" => p.solve(Dopri5::default(), &o),
+            "bdf" => p.solve(Bdf::default(), &o),
+            _ => p.solve(Rodas5P::default(), &o),
+        }
+        .unwrap();
+        assert_eq!(s.dense_segments().len(), segments, "{name}");
+        for (k, &t) in ts.iter().enumerate() {
+            let x = s.at(t).unwrap();
+            assert_eq!(
+                [x[0].to_bits(), x[1].to_bits()],
+                [bits[2 * k], bits[2 * k + 1]],
+                "{name} at t = {t}"
+            );
+        }
+        // Save::At with the default (no kept polynomials) gives the same values
+        let a = match name {
+            "rk45" => p.solve(Dopri5::default(), &o.clone().dense(false).save(Save::At(ts.to_vec()))),
+            "bdf" => p.solve(Bdf::default(), &o.clone().dense(false).save(Save::At(ts.to_vec()))),
+            _ => p.solve(Rodas5P::default(), &o.clone().dense(false).save(Save::At(ts.to_vec()))),
+        }
+        .unwrap();
+        assert!(a.dense_segments().is_empty());
+        for (k, x) in a.x.iter().enumerate() {
+            assert_eq!(
+                [x[0].to_bits(), x[1].to_bits()],
+                [bits[2 * k], bits[2 * k + 1]],
+                "{name} Save::At"
+            );
         }
     }
 }

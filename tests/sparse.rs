@@ -12,7 +12,7 @@ use proptest::prelude::*;
 use reckon::methods::{Bdf, ImplicitEuler, Method, Rodas5P};
 use reckon::num_dual::DualDVec64;
 use reckon::options::{LinearSolver, Save};
-use reckon::problems::{brusselator, brusselator_2d, brusselator_2d_y0, brusselator_y0};
+use reckon::problems::{brusselator, brusselator_2d, brusselator_2d_y0, brusselator_y0, brusselator_y0_book};
 use reckon::sparse::colour::{Coloured, Colouring, detect_pattern};
 use reckon::sparse::{Pattern, SparseJacobian, SparseLu};
 use reckon::{Error, Options, Problem, System};
@@ -87,6 +87,43 @@ fn singular_and_non_finite_fail() {
 
 const N: usize = 500;
 
+/// BRUSS 1-D with N = 500 (1 000 states) from `problems::brusselator_y0` (`u_i = 1 +
+/// ½ sin 2πx_i`, `v_i = 3`, `x_i = i/501`, α = 1/50, boundary `u = 1`, `v = 3`): `(i, u_i,
+/// v_i)` at `t = 10` for 15 of the 500 grid points (1-based `i`).
+///
+/// Provenance: scipy 1.17.1 (numpy 2.4.6) `solve_ivp(method="Radau", rtol=1e-13,
+/// atol=1e-13, jac=<the exact sparse Jacobian>)`, 5 490 steps, written out with Python's
+/// `repr` (17 significant digits); the script is in `docs/references.md`. Its own
+/// `rtol = 1e-12` run agrees to 1.3e-13 absolute in every one of the 1 000 components
+/// (`1e-11`: 9.8e-13). Independently, reckon's Rodas5P (sparse path) at `rtol = atol =
+/// 1e-12` agrees to 4.1e-12 and Bdf to 3.9e-11. With the book's amplitude 1
+/// (`brusselator_y0_book`) the end state differs from these by up to 0.16.
+const BRUSS_REF_10: [(usize, f64, f64); 15] = [
+    (1, 0.99491970023176, 3.005348906814994),
+    (25, 0.8752626365016727, 3.1310118289054856),
+    (50, 0.7624421042573137, 3.2476771212435427),
+    (100, 0.5945985839972461, 3.4111564561836825),
+    (125, 0.5395823579001645, 3.458657216774458),
+    (167, 0.4805801227604506, 3.5023137733654686),
+    (200, 0.4556261707552648, 3.517524904943899),
+    (250, 0.4426841526680765, 3.5266692395908974),
+    (300, 0.45522902728006165, 3.5257427386021054),
+    (333, 0.479865808089968, 3.5145883024867643),
+    (375, 0.5383042574594811, 3.473474126030007),
+    (400, 0.5928316594749825, 3.4259329496367514),
+    (450, 0.7591717305358049, 3.259308758422515),
+    (475, 0.8710345806036083, 3.139894947798231),
+    (500, 0.9949443665673287, 3.0054979997475813),
+];
+
+/// The largest absolute difference of `x` from [`BRUSS_REF_10`] at its grid points.
+fn ref_error(x: &DVector<f64>) -> f64 {
+    BRUSS_REF_10
+        .iter()
+        .map(|&(i, u, v)| (x[2 * (i - 1)] - u).abs().max((x[2 * (i - 1) + 1] - v).abs()))
+        .fold(0.0, f64::max)
+}
+
 fn run<M: Method<Dyn>>(method: M, linear: LinearSolver, rtol: f64, t_end: f64) -> (DVector<f64>, reckon::Stats, Bruss) {
     let sys = Bruss::new(N, Jac::Coloured);
     let o = Options::default()
@@ -106,7 +143,7 @@ fn same(
     name: &str,
     make: impl Fn() -> (DVector<f64>, reckon::Stats, Bruss),
     dense: impl Fn() -> (DVector<f64>, reckon::Stats, Bruss),
-) {
+) -> (DVector<f64>, DVector<f64>) {
     let (xs, ss, bs) = make();
     let (xd, sd, bd) = dense();
     let err = (&xs - &xd).amax() / xd.amax();
@@ -118,6 +155,22 @@ fn same(
     assert_eq!(bs.sparse_calls.get(), ss.jacobian_evals as usize);
     assert_eq!(bd.sparse_calls.get(), 0, "{name}: the dense run made no sparse J");
     assert_eq!(bd.dense_calls.get(), sd.jacobian_evals as usize);
+    (xs, xd)
+}
+
+/// Both paths' end states are as far from the scipy Radau reference as each other (the
+/// same to 1e-10 of the state's size) and within `bound` of it.
+fn near_reference(name: &str, (xs, xd): (DVector<f64>, DVector<f64>), bound: f64) {
+    let (es, ed) = (ref_error(&xs), ref_error(&xd));
+    println!("{name}: error against scipy Radau: sparse {es:.3e}, dense {ed:.3e}");
+    assert!(
+        es < bound && ed < bound,
+        "{name}: sparse {es:e}, dense {ed:e} (bound {bound:e})"
+    );
+    assert!(
+        (es - ed).abs() < 1e-10 * xd.amax(),
+        "{name}: sparse {es:e}, dense {ed:e}"
+    );
 }
 
 /// BRUSS 1-D, 500 points (1 000 states): the sparse path (coloured J, faer sparse LU)
@@ -132,13 +185,21 @@ fn implicit_euler_sparse_equals_dense() {
 #[test]
 fn bdf_sparse_equals_dense() {
     let r = |l| move || run(Bdf::default(), l, 1e-6, 10.0);
-    same("bdf", r(LinearSolver::Sparse), r(LinearSolver::Dense));
+    near_reference(
+        "bdf",
+        same("bdf", r(LinearSolver::Sparse), r(LinearSolver::Dense)),
+        1e-4,
+    );
 }
 
 #[test]
 fn rodas5p_sparse_equals_dense() {
     let r = |l| move || run(Rodas5P::default(), l, 1e-6, 10.0);
-    same("rodas5p", r(LinearSolver::Sparse), r(LinearSolver::Dense));
+    near_reference(
+        "rodas5p",
+        same("rodas5p", r(LinearSolver::Sparse), r(LinearSolver::Dense)),
+        1e-4,
+    );
 }
 
 /// `Auto` takes the sparse path for 1 000 states with 5 non-zeros per column, and does
@@ -398,25 +459,73 @@ fn auto_method_switches_alike_on_both_paths() {
 }
 
 /// `problems::brusselator` is HNW's BRUSS (ODE II §IV.1, (1.6′)): `x_i = i/(N+1)`,
-/// `u_i(0) = 1 + sin(2πx_i)` (the book's amplitude 1), `v_i(0) = 3`, α = 1/50 with the
-/// boundary values `u = 1, v = 3`.
+/// α = 1/50 with the boundary values `u = 1, v = 3`; `brusselator_y0` is the reference
+/// values' `u_i(0) = 1 + ½ sin(2πx_i)`, `v_i(0) = 3`, and `brusselator_y0_book` the
+/// book's printed amplitude 1.
 #[test]
-fn brusselator_1d_is_the_books_setup() {
+fn brusselator_1d_setup_and_initial_values() {
     let n = 500;
-    let y0 = brusselator_y0(n);
+    let (y0, book) = (brusselator_y0(n), brusselator_y0_book(n));
     let x = |i: usize| i as f64 / (n as f64 + 1.0);
+    let s = |i: usize| (2.0 * std::f64::consts::PI * x(i)).sin();
     for i in [1usize, 125, 250, 500] {
-        assert!((y0[2 * (i - 1)] - (1.0 + (2.0 * std::f64::consts::PI * x(i)).sin())).abs() < 1e-15);
-        assert_eq!(y0[2 * (i - 1) + 1], 3.0);
+        assert!((y0[2 * (i - 1)] - (1.0 + 0.5 * s(i))).abs() < 1e-15);
+        assert!((book[2 * (i - 1)] - (1.0 + s(i))).abs() < 1e-15);
+        assert_eq!((y0[2 * (i - 1) + 1], book[2 * (i - 1) + 1]), (3.0, 3.0));
     }
+    // u₁₂₅ = 1 + ½·sin(2π·125/501), the grid point nearest x = ¼ (Python's math.sin)
+    assert!((y0[2 * 124] - 1.499_997_542_440_987_3).abs() < 1e-15, "{}", y0[2 * 124]);
     let mut f = y0.clone();
     brusselator(n).rhs(0.0, &y0, &[], &mut f);
     let (u1, u2) = (y0[0], y0[2]);
     let alpha = 1.0 / 50.0 * (n as f64 + 1.0).powi(2);
     let expect = 1.0 + u1 * u1 * 3.0 - 4.0 * u1 + alpha * (1.0 - 2.0 * u1 + u2);
-    // the diffusion terms (≈ 5 000 × 4) cancel to 0.016: rounding is relative to them
+    // the diffusion terms (≈ 5 000 × 4) cancel to a small number: rounding is relative to them
     let scale = alpha * (1.0 + 2.0 * u1.abs() + u2.abs());
     assert!((f[0] - expect).abs() < 1e-14 * scale, "{} vs {expect}", f[0]);
+}
+
+/// The shipped traced `problems::brusselator` from `brusselator_y0` reaches scipy Radau's
+/// end state ([`BRUSS_REF_10`]) at `t = 10`: on the sparse path (`Auto`: the compiled
+/// J, faer's sparse LU) and the dense one (`LinearSolver::Dense`) alike, to well within
+/// 100× the tolerance at `rtol = atol = 1e-8` (measured: 6e-8 to 8e-8), and Rodas5P to
+/// 1e-9 at 1e-11. The book's amplitude is 0.16 away: a wrong initial value, coefficient
+/// or boundary value fails this.
+#[test]
+fn brusselator_end_state_matches_scipy_radau() {
+    let sys = brusselator(N);
+    let p = Problem::new(&sys, brusselator_y0(N), (0.0, 10.0));
+    let o = Options::default().rtol(1e-8).atol(1e-8).save(Save::End);
+    for (name, sparse, dense) in [
+        (
+            "bdf",
+            p.solve(Bdf::default(), &o).unwrap(),
+            p.solve(Bdf::default(), &o.clone().linear_solver(LinearSolver::Dense))
+                .unwrap(),
+        ),
+        (
+            "rodas5p",
+            p.solve(Rodas5P::default(), &o).unwrap(),
+            p.solve(Rodas5P::default(), &o.clone().linear_solver(LinearSolver::Dense))
+                .unwrap(),
+        ),
+    ] {
+        assert_eq!(sparse.stats.accepted, dense.stats.accepted, "{name}: the same steps");
+        near_reference(name, (sparse.last().1.clone(), dense.last().1.clone()), 1e-6);
+    }
+    let tight = p
+        .solve(
+            Rodas5P::default(),
+            &Options::default().rtol(1e-11).atol(1e-11).save(Save::End),
+        )
+        .unwrap();
+    let e = ref_error(tight.last().1);
+    println!("rodas5p at 1e-11: {e:.3e}");
+    assert!(e < 1e-9, "{e:e}");
+    let book = Problem::new(&sys, brusselator_y0_book(N), (0.0, 10.0))
+        .solve(Rodas5P::default(), &o)
+        .unwrap();
+    assert!(ref_error(book.last().1) > 0.1, "the book's amplitude ends elsewhere");
 }
 
 /// A traced model compiles its sparse Jacobian once: later solves of the same size reuse

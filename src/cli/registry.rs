@@ -97,7 +97,11 @@ where
     fn reference_solution(&self) -> Result<Solution<D>> {
         self.problem.solve(
             Dopri5::default(),
-            &Options::default().rtol(1e-12).atol(1e-12).max_steps(2_000_000),
+            &Options::default()
+                .rtol(1e-12)
+                .atol(1e-12)
+                .dense(true)
+                .max_steps(2_000_000),
         )
     }
     fn u0(&self) -> Vec<f64> {

@@ -66,8 +66,7 @@ where
     last_failure: Option<Failure>,
     segment: Option<usize>,
     keep_dense: bool,
-    /// Whether [`solve`](Self::solve) stores the dense segments (`Options::dense`, or
-    /// events without output times).
+    /// Whether [`solve`](Self::solve) stores the dense segments (`Options::dense` only).
     store_dense: bool,
     save: Save,
     dense: Vec<OVector<f64, D>>,
@@ -231,7 +230,9 @@ where
         }
         let at_times = save::Saver::<D>::needs_dense(&opts.save);
         let keep_dense = opts.dense || !problem.events.is_empty() || at_times;
-        let store_dense = opts.dense || (!problem.events.is_empty() && !at_times);
+        // the polynomials are computed for events and output times, but kept in the
+        // solution only when asked (`Options::dense`)
+        let store_dense = opts.dense;
         let dense = if keep_dense {
             vec![x0.clone(); method.dense_len()]
         } else {

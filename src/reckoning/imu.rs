@@ -23,7 +23,8 @@ pub fn model_2d() -> impl crate::DualSystem<Const<5>> + Clone {
 
 /// Dead-reckon planar IMU samples `(t, ω, a_x, a_y)` (each held until the next; the last
 /// sample's time is the end) from `x0`, after subtracting `bias = (b_ω, b_ax, b_ay)`.
-/// Integrated with RK45 at 1e-10 so that the result is the exact consequence of the data.
+/// Integrated with RK45 at 1e-10 so that the result is the exact consequence of the data,
+/// keeping the dense output: [`Solution::at`](crate::Solution::at) gives the state at any time.
 ///
 /// ```
 /// use reckon::reckoning::imu::dead_reckon_2d;
@@ -31,6 +32,7 @@ pub fn model_2d() -> impl crate::DualSystem<Const<5>> + Clone {
 /// // constant forward acceleration 1 m/s² for 2 s: x = ½·1·2² = 2
 /// let sol = dead_reckon_2d(&[(0.0, 0.0, 1.0, 0.0), (2.0, 0.0, 0.0, 0.0)], Vector5::zeros(), [0.0; 3]).unwrap();
 /// assert!((sol.last().1[0] - 2.0).abs() < 1e-9);
+/// assert!((sol.at(1.0).unwrap()[0] - 0.5).abs() < 1e-9); // x = ½·1·1² halfway
 /// ```
 pub fn dead_reckon_2d(
     samples: &[(f64, f64, f64, f64)],
@@ -47,9 +49,10 @@ pub fn dead_reckon_2d(
         .collect();
     let controls = Controls::new(times, values)?;
     let span = (samples[0].0, samples[samples.len() - 1].0);
-    Problem::new(model_2d(), x0, span)
-        .controls(controls)
-        .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-10))
+    Problem::new(model_2d(), x0, span).controls(controls).solve(
+        Dopri5::default(),
+        &Options::default().rtol(1e-10).atol(1e-10).dense(true),
+    )
 }
 
 /// Strapdown navigation state: attitude `R` (body → world), velocity, position.

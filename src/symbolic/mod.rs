@@ -15,7 +15,10 @@
 //!   [`Traced::mathml`], [`Traced::rust`], [`Traced::json`]);
 //! - the sparsity pattern of `∂f/∂x` ([`Traced::pattern`]);
 //! - a compiled evaluator of `∂f/∂x` into a dense or a sparse (CSC) matrix
-//!   ([`Traced::compile_jacobian`]), which the implicit methods use for large models.
+//!   ([`Traced::compile_jacobian`]), which the implicit methods use for large models:
+//!   an instruction list, and for up to [`jit::MAX_NATIVE_INSTRUCTIONS`] instructions
+//!   also machine code generated with Cranelift (feature `jit`, on by default) that gives
+//!   the same bits faster than num-dual.
 //!
 //! ```
 //! use reckon::{models::unicycle, symbolic};
@@ -470,7 +473,8 @@ impl Traced {
         Pattern::from_csc(self.n, col_ptr, rows).expect("the trace's entries are sorted and unique")
     }
 
-    /// `∂f/∂x` compiled into an instruction list over `f64` (see [`CompiledJacobian`]).
+    /// `∂f/∂x` compiled into an instruction list over `f64`, and into machine code when it
+    /// is short enough (see [`CompiledJacobian`]).
     pub fn compile_jacobian(&self) -> CompiledJacobian {
         let roots: Vec<u32> = self.jx.iter().map(|e| e.2).collect();
         CompiledJacobian::new(self.pattern(), compile::Program::new(&self.g, &roots))

@@ -11,18 +11,13 @@
 //! opt-in, `Options::default()` kept it: 2 803 MiB (with the book's initial amplitude,
 //! 60 720 steps, the same to 0.1 MiB).
 
+#[path = "common/rss.rs"]
+mod rss;
+use rss::peak_rss_mib;
+
 use reckon::methods::Dopri5;
 use reckon::problems::{brusselator, brusselator_y0};
 use reckon::{Options, Problem, Save};
-
-fn peak_rss_mib() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    s.lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|kb| kb.parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
 
 fn main() {
     let mode = std::env::args().nth(1).unwrap_or_else(|| "end".into());

@@ -34,6 +34,10 @@
 //! 70–125×; Rodas5P sparse at 5.6e-6 18–20 ms; diffsol at 1.8e-6 19–22 ms, 1.4–2.5×
 //! reckon's sparse time; the reference pair agrees to 10.2 digits.
 
+#[path = "common/rss.rs"]
+mod rss;
+use rss::peak_rss_mib;
+
 #[path = "../tests/common/bruss.rs"]
 mod bruss;
 
@@ -45,15 +49,6 @@ use reckon::problems::{brusselator, brusselator_y0};
 use reckon::sparse::{Pattern, SparseLu};
 use reckon::{Options, Problem};
 use std::time::Instant;
-
-fn peak_rss_mib() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    s.lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|kb| kb.parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
 
 fn jac(s: &str) -> Jac {
     match s {

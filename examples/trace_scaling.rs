@@ -1,18 +1,13 @@
 //! Time and memory of tracing and compiling the 1-D Brusselator's Jacobian at growing sizes:
 //! `cargo run --release --example trace_scaling -- 500000` (grid points; 2N states).
+
+#[path = "common/rss.rs"]
+mod rss;
 use reckon::problems::brusselator;
 use reckon::sparse::SparseJacobian;
 use reckon::symbolic;
+use rss::peak_rss_mib;
 use std::time::Instant;
-
-fn peak_rss_mib() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    s.lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|v| v.parse::<f64>().ok())
-        .map_or(f64::NAN, |kib| kib / 1024.0)
-}
 
 fn main() {
     let n: usize = std::env::args().nth(1).and_then(|s| s.parse().ok()).unwrap_or(10_000);

@@ -332,8 +332,18 @@ fn flow_exact<const N: usize, S: System<Const<N>> + Clone + 'static, F: Flow<Con
     })
 }
 
-/// The grid size `N` of a `brusselator:N` problem name: `None` without the prefix,
-/// `Some(Err(message))` unless `N` is a whole number from 1 to 5 000 000.
+/// `"brusselator:N" ↦ N ∈ [1, 5·10⁶]`: the grid size of a `brusselator:N` problem name,
+/// `None` without the prefix, `Some(Err(message))` unless `N` is a whole number from 1 to
+/// 5 000 000 (shared by `reckon jacobian` and the study commands).
+///
+/// ```
+/// use reckon::cli::registry::brusselator_size;
+/// assert_eq!(brusselator_size("brusselator:100000"), Some(Ok(100_000)));
+/// assert_eq!(brusselator_size("robertson"), None);
+/// for bad in ["brusselator:0", "brusselator:abc", "brusselator:5000001"] {
+///     assert!(brusselator_size(bad).unwrap().unwrap_err().contains("from 1 to 5000000"));
+/// }
+/// ```
 pub fn brusselator_size(name: &str) -> Option<std::result::Result<usize, String>> {
     let n = name.strip_prefix("brusselator:")?;
     Some(

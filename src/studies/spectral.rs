@@ -14,9 +14,16 @@ use num_complex::Complex64;
 /// offers a sparse Jacobian (`System::sparse_jacobian`). Dense QR costs `O(n³)` per
 /// point (about 0.1 s at 200 states, 10⁴ s at 10⁴); the sparse estimate costs a few
 /// dozen products and solves with `J`, `O(nnz)` each.
+///
+/// ```
+/// use reckon::studies::spectral::SPARSE_MIN_STATES;
+/// // BRUSS 1-D with N grid points has 2N states: sparse from N = 100
+/// assert_eq!(SPARSE_MIN_STATES, 2 * 100);
+/// ```
 pub const SPARSE_MIN_STATES: usize = 200;
 
-/// The caps and tolerance of the Arnoldi iterations of [`dominant`] and
+/// `‖A·x − θ·x‖ ≤ tol·|θ|` (or `|θ| ≥ (1 − tol)·G`) within `max_restarts` restarts of
+/// `krylov` steps: the caps and tolerance of the Arnoldi iterations of [`dominant`] and
 /// [`sparse_spectrum`].
 ///
 /// The iteration builds a Krylov basis of `krylov` vectors, takes the Ritz value `θ` of
@@ -105,7 +112,15 @@ pub fn gershgorin(pattern: &Pattern, values: &[f64]) -> f64 {
     rows.iter().copied().fold(0.0, f64::max).min(max_col)
 }
 
-/// The eigenvalue of largest modulus of a linear operator, and how well it is known.
+/// `θ ≈ argmax |λ|` of a linear operator, with its residual `‖A·x − θ·x‖`: what
+/// [`dominant`] returns.
+///
+/// ```
+/// use reckon::studies::spectral::{dominant, SpectralOptions};
+/// let mut op = |x: &[f64], y: &mut [f64]| { y[0] = 3.0 * x[0]; y[1] = -7.0 * x[1]; };
+/// let d = dominant(2, &mut op, &SpectralOptions::default(), None, "test", 0.0).unwrap();
+/// assert!((d.value.re + 7.0).abs() < 1e-12 && d.residual < 1e-12 && d.products == 2);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Dominant {
     /// The Ritz value `θ` of largest `|θ|`.
@@ -348,7 +363,18 @@ fn ritz_vector(theta: Complex64, y: &[Complex64], v: &[f64], n: usize) -> Vec<f6
     x
 }
 
-/// What [`sparse_spectrum`] estimates of `J` at one point.
+/// `ρ(J) = |λ_max|`, `λ_min`, Gershgorin's bound and `ρ(J)/|λ_min|`: what
+/// [`sparse_spectrum`] estimates of `J` at one point.
+///
+/// ```
+/// use reckon::sparse::Pattern;
+/// use reckon::studies::spectral::{sparse_spectrum, SpectralOptions};
+/// // diag(−1, −10, −100)
+/// let p = Pattern::from_entries(3, &[(0, 0), (1, 1), (2, 2)]);
+/// let s = sparse_spectrum(0.0, &p, &[-1.0, -10.0, -100.0], &SpectralOptions::default()).unwrap();
+/// assert!((s.spectral_radius - 100.0).abs() < 1e-10 && (s.smallest.re + 1.0).abs() < 1e-12);
+/// assert!((s.ratio - 100.0).abs() < 1e-9 && s.gershgorin == 100.0);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SparseSpectrum {
     /// `ρ(J) ≈ |λ_max|`, the Arnoldi estimate of the largest `|λ|`.
@@ -395,9 +421,15 @@ pub fn sparse_spectrum(t: f64, pattern: &Pattern, values: &[f64], opts: &Spectra
     sparse_spectrum_with(t, pattern, values, opts, &mut SpectralWorkspace::default())
 }
 
-/// What [`sparse_spectrum_with`] keeps between calls: the last Ritz vectors of `J` and
+/// `(x_J, x_{J⁻¹}, LU)`, what [`sparse_spectrum_with`] keeps between calls: the last Ritz vectors of `J` and
 /// `J⁻¹` (warm starts) and the sparse LU with its symbolic analysis (COLAMD order), redone
 /// only when the pattern changes.
+///
+/// ```
+/// use reckon::studies::spectral::SpectralWorkspace;
+/// let ws = SpectralWorkspace::default(); // empty: the first call starts cold
+/// assert!(format!("{ws:?}").starts_with("SpectralWorkspace"));
+/// ```
 #[derive(Debug, Default)]
 pub struct SpectralWorkspace {
     big: Vec<f64>,

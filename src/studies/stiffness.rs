@@ -161,7 +161,8 @@ pub struct StiffnessPoint {
     /// Spectral radius `ρ(J) = max |λ|`.
     pub spectral_radius: f64,
     /// `max |Re λ| / min |Re λ|` over eigenvalues with `Re λ < 0` (∞ with a zero one, 1
-    /// with one). Exactly 1 for every scalar problem, however stiff: see `index`.
+    /// with one). Exactly 1 for every scalar problem, however stiff: see `index`. On the
+    /// sparse path ([`stiffness_along_sparse`]) the magnitude ratio `ρ(J)/min |λ|` instead.
     pub ratio: f64,
     /// The step the solution's accuracy needs here: the accepted step of the A-stable
     /// run (its step is limited by accuracy alone) from this point to the next.
@@ -340,7 +341,8 @@ fn sparse_point(
     Ok(point(t, h, s.spectral_radius, s.ratio))
 }
 
-/// [`stiffness_along`] without a dense matrix: at every `every`-th point the model's sparse
+/// `index = ρ(J)·h_accuracy/3.3066` with `ρ(J)` from a sparse estimate: [`stiffness_along`]
+/// without a dense matrix. At every `every`-th point the model's sparse
 /// Jacobian ([`System::sparse_jacobian`]) and [`sparse_spectrum`] of it, so
 /// `spectral_radius = |λ_max|` (restarted Arnoldi, to `opts.tol`, checked against
 /// Gershgorin's bound), `h_stability = 3.3066/ρ(J)` and `index = ρ(J)·h_accuracy/3.3066`
@@ -399,7 +401,8 @@ where
     Ok(out)
 }
 
-/// The stiffness points of a run too large to keep: `problem` driven by `method` step by
+/// [`stiffness_along_sparse`] at every `k`-th step, `k = ⌈steps/samples⌉`: the stiffness
+/// points of a run too large to keep, `problem` driven by `method` step by
 /// step (no state stored), and at every `k`-th accepted step, `k = ⌈steps/samples⌉` with
 /// `steps` the run's accepted steps (given, from an earlier run with the same options, or
 /// counted by a first run that keeps only its count; at most `samples` points when it is

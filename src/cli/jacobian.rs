@@ -72,12 +72,8 @@ fn traced(a: &JacobianArgs) -> Result<Traced, String> {
         return Err("--wheelbase applies to --model bicycle and carlike".into());
     }
     let p = a.problem.as_deref().unwrap_or_default();
-    if let Some(n) = p.strip_prefix("brusselator:") {
-        let n: usize = n
-            .parse()
-            .ok()
-            .filter(|&n| (1..=5_000_000).contains(&n))
-            .ok_or_else(|| format!("brusselator:N needs N from 1 to 5000000 grid points, got '{n}'"))?;
+    if let Some(n) = super::registry::brusselator_size(p) {
+        let n = n?;
         return e(symbolic::trace(&problems::brusselator(n), 2 * n));
     }
     match p {

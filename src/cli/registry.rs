@@ -6,7 +6,8 @@ use crate::models::{bicycle, carlike, unicycle};
 use crate::problems::*;
 use crate::studies::MethodKind;
 use crate::studies::convergence::{Convergence, check, convergence};
-use crate::studies::stiffness::{StiffnessPoint, stiffness_along};
+use crate::studies::spectral::{SPARSE_MIN_STATES, SpectralOptions};
+use crate::studies::stiffness::{StiffnessPoint, sampled_stiffness, stiffness_along};
 use crate::studies::work_precision::{WorkPoint, work_precision_scaled};
 use crate::{Controls, Error, Options, Problem, Result, Solution, System};
 use nalgebra::allocator::Allocator;
@@ -26,9 +27,33 @@ pub struct History {
     pub stopped_by: Option<String>,
 }
 
+/// The stiffness points of a run and how they were computed.
+#[derive(Debug, Clone)]
+pub struct StiffnessRun {
+    pub points: Vec<StiffnessPoint>,
+    /// Every how many accepted steps a point was taken (1: every step).
+    pub every: usize,
+    /// `true`: the sparse estimate (Arnoldi, sparse LU), `false`: dense QR eigenvalues.
+    pub sparse: bool,
+}
+
+/// `brusselator:N` below this many states has an RK45 reference at 1e-12 (its stable step
+/// ≈ 3.3/(0.08·N²) is then ≥ 1.6·10⁻⁴: under 10⁵ steps on [0, 10]), from it Rodas5P's at 1e-10.
+pub const RK_REFERENCE_MAX_STATES: usize = 1_000;
+
+/// At most this many stiffness points on the sparse path (`SPARSE_MIN_STATES` states or
+/// more): every `k`-th step of the implicit-Euler run, `k = ⌈steps/50⌉`.
+pub const SPARSE_SAMPLES: usize = 50;
+
+/// RK45's step cap in `stiffness` on a problem of `SPARSE_MIN_STATES` states or more:
+/// its stable step there is tiny (BRUSS with N grid points: ≈ 3.3/(0.08·N²), 4·10⁻⁹ s at
+/// N = 10⁵), so its history is the first 1 000 steps, which show the stability limit,
+/// instead of hours of them.
+pub const LARGE_RK45_STEPS: usize = 1_000;
+
 pub trait StudyProblem {
-    fn name(&self) -> &'static str;
-    fn describe(&self) -> &'static str;
+    fn name(&self) -> &str;
+    fn describe(&self) -> &str;
     /// Default fixed steps for `method`: first-order methods and exact flows use the
     /// problem's list, RK45 a coarser one so that its errors stay above round-off.
     fn default_steps(&self, method: MethodKind) -> Vec<f64>;
@@ -38,8 +63,12 @@ pub trait StudyProblem {
     fn convergence(&self, methods: &[MethodKind], steps: &[f64], max_steps: u64) -> Result<Convergence>;
     fn histories(&self, rtol: f64, atol: f64, max_steps: usize) -> Vec<History>;
     /// The Jacobian's eigenvalues and the stiffness index at every step of an
-    /// implicit-Euler run (A-stable: its steps are set by accuracy alone).
-    fn stiffness_points(&self, rtol: f64, atol: f64) -> Result<Vec<StiffnessPoint>>;
+    /// implicit-Euler run (A-stable: its steps are set by accuracy alone); from
+    /// `SPARSE_MIN_STATES` states on, for a model with a sparse Jacobian, the sparse
+    /// estimate at at most `SPARSE_SAMPLES` of its steps.
+    /// `steps`: the accepted steps of an implicit-Euler run at these tolerances if known
+    /// (its history), which spares the sparse path a counting run.
+    fn stiffness_points(&self, rtol: f64, atol: f64, steps: Option<usize>) -> Result<StiffnessRun>;
     fn work_precision(
         &self,
         methods: &[MethodKind],
@@ -55,8 +84,8 @@ struct Spec<D: Dim, S>
 where
     DefaultAllocator: Allocator<D>,
 {
-    name: &'static str,
-    describe: &'static str,
+    name: String,
+    describe: String,
     problem: Problem<'static, D, S>,
     exact: Option<ExactFn<D>>,
     reference_end: Option<OVector<f64, D>>,
@@ -94,7 +123,15 @@ where
     fn flow(&self) -> Option<&dyn Flow<D>> {
         self.flow.as_deref()
     }
+    /// RK45 at 1e-12 on a non-stiff problem, Rodas5P at 1e-10 on a stiff one (too large or
+    /// too stiff for RK45).
     fn reference_solution(&self) -> Result<Solution<D>> {
+        if !self.rk_reference {
+            return self.problem.solve(
+                Rodas5P::default(),
+                &Options::default().rtol(1e-10).atol(1e-10).dense(false),
+            );
+        }
         self.problem.solve(
             Dopri5::default(),
             &Options::default()
@@ -103,6 +140,9 @@ where
                 .dense(true)
                 .max_steps(2_000_000),
         )
+    }
+    fn states(&self) -> usize {
+        self.problem.x0.len()
     }
     fn u0(&self) -> Vec<f64> {
         self.problem
@@ -117,11 +157,11 @@ impl<D: LuDim, S: System<D>> StudyProblem for Spec<D, S>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    fn name(&self) -> &'static str {
-        self.name
+    fn name(&self) -> &str {
+        &self.name
     }
-    fn describe(&self) -> &'static str {
-        self.describe
+    fn describe(&self) -> &str {
+        &self.describe
     }
     fn default_steps(&self, method: MethodKind) -> Vec<f64> {
         match method {
@@ -156,20 +196,44 @@ where
             .atol(atol)
             .dense(false)
             .max_steps(max_steps);
+        let rk45 = if self.states() >= SPARSE_MIN_STATES {
+            opts.clone().max_steps(max_steps.min(LARGE_RK45_STEPS))
+        } else {
+            opts.clone()
+        };
         vec![
-            history(&self.problem, Dopri5::default(), &opts),
+            history(&self.problem, Dopri5::default(), &rk45),
             history(&self.problem, ImplicitEuler::default(), &opts),
             history(&self.problem, Bdf::default(), &opts),
             history(&self.problem, Rodas5P::default(), &opts),
             history(&self.problem, Auto::default(), &opts),
         ]
     }
-    fn stiffness_points(&self, rtol: f64, atol: f64) -> Result<Vec<StiffnessPoint>> {
-        let sol = self.problem.solve(
-            ImplicitEuler::default(),
-            &Options::default().rtol(rtol).atol(atol).dense(false),
-        )?;
-        stiffness_along(&self.problem.system, &sol, &self.u0(), 1)
+    fn stiffness_points(&self, rtol: f64, atol: f64, steps: Option<usize>) -> Result<StiffnessRun> {
+        let opts = Options::default().rtol(rtol).atol(atol).dense(false);
+        let n = self.states();
+        if n >= SPARSE_MIN_STATES && self.problem.system.sparse_jacobian(n).is_some() {
+            let (points, every) = sampled_stiffness(
+                &self.problem,
+                ImplicitEuler::default,
+                &opts,
+                SPARSE_SAMPLES,
+                steps,
+                &self.u0(),
+                &SpectralOptions::default(),
+            )?;
+            return Ok(StiffnessRun {
+                points,
+                every,
+                sparse: true,
+            });
+        }
+        let sol = self.problem.solve(ImplicitEuler::default(), &opts)?;
+        Ok(StiffnessRun {
+            points: stiffness_along(&self.problem.system, &sol, &self.u0(), 1)?,
+            every: 1,
+            sparse: false,
+        })
     }
     fn work_precision(
         &self,
@@ -207,8 +271,8 @@ where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
     Spec {
-        name,
-        describe,
+        name: name.to_string(),
+        describe: describe.to_string(),
         problem,
         exact,
         reference_end: None,
@@ -276,9 +340,64 @@ fn flow_exact<const N: usize, S: System<Const<N>> + Clone + 'static, F: Flow<Con
     })
 }
 
+/// `"brusselator:N" ↦ N ∈ [1, 5·10⁶]`: the grid size of a `brusselator:N` problem name,
+/// `None` without the prefix, `Some(Err(message))` unless `N` is a whole number from 1 to
+/// 5 000 000 (shared by `reckon jacobian` and the study commands).
+///
+/// ```
+/// use reckon::cli::registry::brusselator_size;
+/// assert_eq!(brusselator_size("brusselator:100000"), Some(Ok(100_000)));
+/// assert_eq!(brusselator_size("robertson"), None);
+/// for bad in ["brusselator:0", "brusselator:abc", "brusselator:5000001"] {
+///     assert!(brusselator_size(bad).unwrap().unwrap_err().contains("from 1 to 5000000"));
+/// }
+/// ```
+pub fn brusselator_size(name: &str) -> Option<std::result::Result<usize, String>> {
+    let n = name.strip_prefix("brusselator:")?;
+    Some(
+        n.parse()
+            .ok()
+            .filter(|&n| (1..=5_000_000).contains(&n))
+            .ok_or_else(|| format!("brusselator:N needs N from 1 to 5000000 grid points, got '{n}'")),
+    )
+}
+
+/// BRUSS 1-D with `n` grid points (`2n` states) on `[0, 10]`: the traced model, whose
+/// compiled sparse Jacobian the implicit methods use from 64 states (`LinearSolver::Auto`)
+/// and the stiffness study from `SPARSE_MIN_STATES`.
+fn brusselator_n(n: usize) -> Box<dyn StudyProblem> {
+    let large = 2 * n >= SPARSE_MIN_STATES;
+    let rk_reference = 2 * n < RK_REFERENCE_MAX_STATES;
+    let describe = format!(
+        "1-D Brusselator, {n} grid points ({} unknowns, DVector, sparse LU from 64 unknowns), t in [0, 10]; {}",
+        2 * n,
+        match (rk_reference, large) {
+            (true, false) => "reference RK45 at 1e-12",
+            (true, true) =>
+                "reference RK45 at 1e-12; stiffness estimated sparse (Arnoldi, sparse LU) at <= 50 steps, RK45 capped at 1000 steps",
+            _ =>
+                "reference Rodas5P at 1e-10; stiffness estimated sparse (Arnoldi, sparse LU) at <= 50 steps, RK45 capped at 1000 steps",
+        }
+    );
+    let mut s = spec(
+        "brusselator",
+        "",
+        Problem::new(brusselator(n), brusselator_y0(n), (0.0, 10.0)),
+        None::<ExactFn<nalgebra::Dyn>>,
+        (halvings(0.004, 5), halvings(0.05, 4)),
+    );
+    s.name = format!("brusselator:{n}");
+    s.describe = describe;
+    s.rk_reference = rk_reference;
+    Box::new(s)
+}
+
 /// Look a problem up by name.
 pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> {
-    let unknown = || format!("unknown problem '{name}' (known: {})", NAMES.join(", "));
+    let unknown = || format!("unknown problem '{name}' (known: {}, brusselator:N)", NAMES.join(", "));
+    if let Some(n) = brusselator_size(name) {
+        return Ok(brusselator_n(n?));
+    }
     Ok(match name {
         "rotation-decay" => {
             let x0 = vector![1.0, 0.5];

@@ -45,7 +45,8 @@ impl Write for Stdout {
 #[derive(Debug, clap::Args)]
 pub struct Common {
     /// Problem name (rotation-decay, dahlquist, sin-u, stiff-cosine, arenstorf, lorenz,
-    /// unicycle, bicycle, carlike, van-der-pol, robertson, orego, hires, brusselator).
+    /// unicycle, bicycle, carlike, van-der-pol, robertson, orego, hires, brusselator, or
+    /// brusselator:N with N from 1 to 5000000 grid points, 2N states).
     #[arg(long)]
     pub problem: String,
     /// Output folder for CSV and SVG files.
@@ -349,6 +350,10 @@ pub fn history_plot(title: &str, hist: &[History]) -> Plot {
     plot
 }
 
+fn ordinal(k: usize) -> String {
+    if k == 1 { String::new() } else { format!("{k}-th ") }
+}
+
 pub fn stiffness(a: &StiffnessArgs) -> Res {
     let p = lookup(&a.common.problem)?;
     positive("rtol", &[a.rtol])?;
@@ -361,7 +366,16 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
     let pb = progress(3, "stiffness");
     let hist = p.histories(a.rtol, a.atol, a.max_steps);
     pb.inc(1);
-    let pts = p.stiffness_points(a.rtol, a.atol)?;
+    // the implicit-Euler history ran at the same tolerances: its step count
+    let ie_steps = hist
+        .iter()
+        .find(|h| {
+            h.method == crate::methods::Method::<nalgebra::Dyn>::name(&crate::methods::ImplicitEuler::default())
+                && h.stopped_by.is_none()
+        })
+        .map(|h| h.accepted as usize);
+    let run = p.stiffness_points(a.rtol, a.atol, ie_steps)?;
+    let pts = &run.points;
     pb.inc(1);
     let dahl = stability_files(dir)?;
     pb.inc(1);
@@ -409,13 +423,28 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
         .map(|q| q.ratio)
         .filter(|r| r.is_finite())
         .fold(1.0, f64::max);
-    let index = crate::studies::stiffness::summarize(&pts);
+    let index = crate::studies::stiffness::summarize(pts);
+    let estimate = if run.sparse {
+        format!(
+            "sparse: ρ(J) by Arnoldi with Gershgorin's bound, min|λ| by Arnoldi on J⁻¹ (sparse LU), at every {}implicit-Euler step ({} points)",
+            ordinal(run.every),
+            pts.len()
+        )
+    } else {
+        format!(
+            "dense: all eigenvalues by QR at every implicit-Euler step ({} points)",
+            pts.len()
+        )
+    };
     let mut out = Stdout::lock();
     if a.common.json {
         let v = serde_json::json!({
             "problem": p.name(), "description": p.describe(), "histories": hist,
             "stiffness_index": index,
             "max_stiffness_ratio": max_ratio,
+            "stiffness_estimate": if run.sparse { "sparse" } else { "dense" },
+            "stiffness_every": run.every,
+            "stiffness_points": pts.len(),
             "dp5_real_axis_limit": real_axis_limit(StabilityOf::Dopri5),
             "euler_threshold": dahl.iter().map(|(l, h, t)| serde_json::json!({"lambda": l, "located": h, "theory": t})).collect::<Vec<_>>(),
             "files": ["step_sizes.csv", "step_sizes.svg", "stiffness.csv", "stiffness.svg", "stability_regions.svg", "stability_boundary.csv", "dahlquist_threshold.csv"],
@@ -444,7 +473,12 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
             index.max,
             100.0 * index.stiff_fraction
         )?;
-        writeln!(out, "largest eigenvalue ratio max|Re λ|/min|Re λ|: {max_ratio:.3e}")?;
+        if run.sparse {
+            writeln!(out, "largest eigenvalue ratio ρ(J)/min|λ|: {max_ratio:.3e}")?;
+        } else {
+            writeln!(out, "largest eigenvalue ratio max|Re λ|/min|Re λ|: {max_ratio:.3e}")?;
+        }
+        writeln!(out, "eigenvalues {estimate}")?;
         for (l, h, t) in &dahl {
             writeln!(
                 out,

@@ -3,6 +3,7 @@
 //! them into CSV, SVG and HTML.
 
 pub mod convergence;
+pub mod spectral;
 pub mod stability;
 pub mod stiffness;
 pub mod work_precision;

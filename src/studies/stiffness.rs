@@ -3,6 +3,8 @@
 use crate::error::{Error, Quantity, Result};
 use crate::methods::Method;
 use crate::solution::{Solution, Stats, Stiffness};
+use crate::sparse::SparseJacobian;
+use crate::studies::spectral::{SpectralOptions, SpectralWorkspace, sparse_spectrum_with};
 use crate::system::System;
 use crate::{Options, Problem};
 use nalgebra::allocator::Allocator;
@@ -159,7 +161,8 @@ pub struct StiffnessPoint {
     /// Spectral radius `ρ(J) = max |λ|`.
     pub spectral_radius: f64,
     /// `max |Re λ| / min |Re λ|` over eigenvalues with `Re λ < 0` (∞ with a zero one, 1
-    /// with one). Exactly 1 for every scalar problem, however stiff: see `index`.
+    /// with one). Exactly 1 for every scalar problem, however stiff: see `index`. On the
+    /// sparse path ([`stiffness_along_sparse`]) the magnitude ratio `ρ(J)/min |λ|` instead.
     pub ratio: f64,
     /// The step the solution's accuracy needs here: the accepted step of the A-stable
     /// run (its step is limited by accuracy alone) from this point to the next.
@@ -291,4 +294,183 @@ pub fn summarize(pts: &[StiffnessPoint]) -> IndexSummary {
         median,
         stiff_fraction: stiff / total,
     }
+}
+
+fn point(t: f64, h_accuracy: f64, spectral_radius: f64, ratio: f64) -> StiffnessPoint {
+    StiffnessPoint {
+        t,
+        spectral_radius,
+        ratio,
+        h_accuracy,
+        h_stability: DP5_LIMIT / spectral_radius,
+        index: spectral_radius * h_accuracy / DP5_LIMIT,
+    }
+}
+
+fn sparse_evaluator<'s, D: Dim, S: System<D>>(sys: &'s S, n: usize) -> Result<Box<dyn SparseJacobian + 's>>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let ev = sys.sparse_jacobian(n).ok_or_else(|| {
+        Error::invalid(
+            "model",
+            "the sparse stiffness estimate needs a model that offers a sparse Jacobian \
+             (System::sparse_jacobian returned None)",
+        )
+    })?;
+    if ev.pattern().n() != n {
+        return Err(Error::invalid(
+            "model",
+            format!(
+                "the sparse Jacobian's pattern is {0}x{0} for a state of {n}",
+                ev.pattern().n()
+            ),
+        ));
+    }
+    Ok(ev)
+}
+
+fn sparse_point(
+    ev: &mut dyn SparseJacobian,
+    (values, ws): (&mut [f64], &mut SpectralWorkspace),
+    (t, x, u, h): (f64, &[f64], &[f64], f64),
+    opts: &SpectralOptions,
+) -> Result<StiffnessPoint> {
+    ev.eval(t, x, u, values);
+    let s = sparse_spectrum_with(t, ev.pattern(), values, opts, ws)?;
+    Ok(point(t, h, s.spectral_radius, s.ratio))
+}
+
+/// `index = ρ(J)·h_accuracy/3.3066` with `ρ(J)` from a sparse estimate: [`stiffness_along`]
+/// without a dense matrix. At every `every`-th point the model's sparse
+/// Jacobian ([`System::sparse_jacobian`]) and [`sparse_spectrum`] of it, so
+/// `spectral_radius = |λ_max|` (restarted Arnoldi, to `opts.tol`, checked against
+/// Gershgorin's bound), `h_stability = 3.3066/ρ(J)` and `index = ρ(J)·h_accuracy/3.3066`
+/// as on the dense path, and `ratio = ρ(J)/|λ_min|` (`λ_min` by Arnoldi on `J⁻¹` through
+/// faer's sparse LU): the magnitude ratio, where the dense path gives
+/// `max|Re λ|/min|Re λ|` over the decaying eigenvalues (the two agree when the extreme
+/// eigenvalues are real and negative). A model without a sparse Jacobian is
+/// [`Error::InvalidInput`]; a non-finite Jacobian [`Error::NonFinite`]; an iteration over
+/// its cap [`Error::NoConvergence`].
+///
+/// ```
+/// use reckon::studies::spectral::SpectralOptions;
+/// use reckon::studies::stiffness::{stiffness_along, stiffness_along_sparse};
+/// use reckon::methods::ImplicitEuler;
+/// use reckon::problems::{brusselator, brusselator_y0};
+/// use reckon::{Options, Problem};
+/// let p = Problem::new(brusselator(20), brusselator_y0(20), (0.0, 1.0));
+/// let sol = p.solve(ImplicitEuler::default(), &Options::default().fixed(0.1)).unwrap();
+/// let o = SpectralOptions { tol: 1e-10, ..Default::default() };
+/// let sparse = stiffness_along_sparse(&p.system, &sol, &[], 5, &o).unwrap();
+/// let dense = stiffness_along(&p.system, &sol, &[], 5).unwrap();
+/// assert_eq!(sparse.len(), 2);
+/// for (s, d) in sparse.iter().zip(&dense) {
+///     assert!((s.spectral_radius / d.spectral_radius - 1.0).abs() < 1e-8);
+///     assert!((s.index / d.index - 1.0).abs() < 1e-8);
+/// }
+/// ```
+pub fn stiffness_along_sparse<D: Dim, S: System<D>>(
+    sys: &S,
+    sol: &Solution<D>,
+    u: &[f64],
+    every: usize,
+    opts: &SpectralOptions,
+) -> Result<Vec<StiffnessPoint>>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let n_pts = sol.t.len().saturating_sub(1);
+    let Some(x0) = sol.x.first() else {
+        return Ok(Vec::new());
+    };
+    let mut ev = sparse_evaluator(sys, x0.len())?;
+    let mut values = vec![0.0; ev.pattern().nnz()];
+    let mut ws = SpectralWorkspace::default();
+    let mut out = Vec::new();
+    for k in (0..n_pts).step_by(every.max(1)) {
+        let (t, x) = (sol.t[k], &sol.x[k]);
+        let h = (sol.t[k + 1] - t).abs();
+        out.push(sparse_point(
+            ev.as_mut(),
+            (&mut values, &mut ws),
+            (t, x.as_slice(), u, h),
+            opts,
+        )?);
+    }
+    Ok(out)
+}
+
+/// [`stiffness_along_sparse`] at every `k`-th step, `k = ⌈steps/samples⌉`: the stiffness
+/// points of a run too large to keep, `problem` driven by `method` step by
+/// step (no state stored), and at every `k`-th accepted step, `k = ⌈steps/samples⌉` with
+/// `steps` the run's accepted steps (given, from an earlier run with the same options, or
+/// counted by a first run that keeps only its count; at most `samples` points when it is
+/// right), the [`stiffness_along_sparse`] point of that step, the spectral iterations
+/// warm-started from the previous point ([`sparse_spectrum_with`]). Each
+/// sampled point stands for `k` steps around it, and weighting it by its own step (as
+/// [`summarize`] does) weights it by the time those steps cover, as on the full run.
+/// Returns the points and `k`. `inputs` are the held inputs the Jacobian is taken at.
+///
+/// ```
+/// use reckon::studies::spectral::SpectralOptions;
+/// use reckon::studies::stiffness::sampled_stiffness;
+/// use reckon::methods::ImplicitEuler;
+/// use reckon::problems::{brusselator, brusselator_y0};
+/// use reckon::{Options, Problem};
+/// let p = Problem::new(brusselator(200), brusselator_y0(200), (0.0, 1.0));
+/// let opts = Options::default().rtol(1e-3).atol(1e-6);
+/// let (pts, every) = sampled_stiffness(&p, ImplicitEuler::default, &opts, 10, None, &[], &SpectralOptions::default()).unwrap();
+/// assert!(pts.len() <= 10 && pts.len() >= 5 && every >= 1);
+/// // c = 201²/50, ρ(J) ≈ 4c: DP5's step limit is about 3.3066/3232
+/// assert!(pts.iter().all(|q| (q.spectral_radius / (4.0 * 201.0f64.powi(2) / 50.0) - 1.0).abs() < 0.01));
+/// ```
+pub fn sampled_stiffness<D: Dim, S: System<D>, M: Method<D>>(
+    problem: &Problem<'_, D, S>,
+    method: impl Fn() -> M,
+    opts: &Options,
+    samples: usize,
+    steps: Option<usize>,
+    inputs: &[f64],
+    spectral: &SpectralOptions,
+) -> Result<(Vec<StiffnessPoint>, usize)>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let steps = match steps {
+        Some(s) => s,
+        None => {
+            let count = history(problem, method(), opts);
+            if let Some(e) = count.stopped_by {
+                return Err(e);
+            }
+            count.h.len()
+        }
+    };
+    let every = steps.div_ceil(samples.max(1)).max(1);
+    let mut it = problem.integrator(method(), opts)?;
+    let mut ev = sparse_evaluator(&problem.system, it.x().len())?;
+    let mut values = vec![0.0; ev.pattern().nnz()];
+    let mut ws = SpectralWorkspace::default();
+    let mut out = Vec::new();
+    let mut k = 0usize;
+    loop {
+        let (t0, x0) = (it.t(), k.is_multiple_of(every).then(|| it.x().clone()));
+        match it.step()? {
+            Some(t) => {
+                if let Some(x) = x0 {
+                    let h = (t - t0).abs();
+                    out.push(sparse_point(
+                        ev.as_mut(),
+                        (&mut values, &mut ws),
+                        (t0, x.as_slice(), inputs, h),
+                        spectral,
+                    )?);
+                }
+                k += 1;
+            }
+            None => break,
+        }
+    }
+    Ok((out, every))
 }

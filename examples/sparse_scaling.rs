@@ -7,7 +7,9 @@
 //! - `scaling`: ImplicitEuler (20 fixed steps of 0.005) and Bdf (adaptive, rtol = atol =
 //!   1e-6 on `[0, 0.1]`) at 10³, 10⁴, 10⁵, 10⁶ states, one process each: median wall
 //!   time per step per state (the whole run, set-up included: symbolic analysis, first
-//!   touch of the memory) and peak RSS (`VmHWM`), with J coloured, by hand, and traced (the
+//!   touch of the memory), the marginal cost per step per state ((solve to 0.4 − solve to
+//!   0.1)/(extra steps), after a first solve) and peak RSS (`VmHWM`), with J coloured, by
+//!   hand, and traced (the
 //!   shipped `problems::brusselator`, whose time includes tracing and compiling its body).
 //! - `versus`: 500 points (1 000 states) on `[0, 10]` at 5 mixed significant digits
 //!   (`−log10 max|y − y_ref|/(1 + |y_ref|)`, reference Rodas5P and Bdf at 1e-11 agreeing):
@@ -19,7 +21,10 @@
 //!   [`SparseLu`](reckon::sparse::SparseLu), BRUSS pattern by size and random patterns by
 //!   density (for `AUTO_MIN_STATES`, `AUTO_MAX_DENSITY`).
 //!
-//! Measured (2 shared cores, 2 Dec 2026, after merging the faster tracer of main e7af194):
+//! Measured (2 cores, 2 Dec 2026, with native compiled Jacobians): `scaling`, 10³ → 10⁶
+//! states, marginal ns/step/state, ImplicitEuler: hand 39.9 → 54.2 (1.36×), coloured 40.9 →
+//! 56.3 (1.38×), traced 46.1 → 54.3 (1.18×); whole runs 1.2–1.7× (README table).
+//! Earlier (shared cores, before the marginal column):
 //! `scaling`, 10³ → 10⁶ states, ns/step/state: ImplicitEuler hand J 70 → 119 (1.7×),
 //! coloured 91 → 133 (1.45×); Bdf hand 95 → 163 (1.7×), coloured 108 → 159 (1.47×): the
 //! growth is the working set leaving the caches (and the one-off COLAMD order and first
@@ -87,9 +92,15 @@ fn run_one<S: reckon::System<nalgebra::Dyn>>(sys: &S, method: &str, j: &str, sta
     let reps = (1_000_000 / states).clamp(1, 25);
     let (mut stats, mut stats2) = (None, None);
     let secs = time(reps, || stats = Some(solve(0.1).stats));
-    // the same solve over twice the time: the difference is the cost of the extra steps
-    // alone, without the one-off set-up (symbolic analysis, first touch of the memory)
-    let secs2 = time(reps, || stats2 = Some(solve(0.2).stats));
+    // after the solve above (which traces a traced model: the model keeps its compiled
+    // Jacobian), the same solve over four times the span against the solve over the span:
+    // the difference is the cost of the extra steps alone, without the one-off set-up
+    // (trace and compile, symbolic analysis, first touch of the memory)
+    let short = time(reps, || {
+        solve(0.1);
+    });
+    let secs2 = time(reps, || stats2 = Some(solve(0.4).stats));
+    let secs = (secs, short);
     let s = stats.expect("ran");
     let s2 = stats2.expect("ran");
     let steps = (s.accepted + s.rejected) as f64;
@@ -100,9 +111,9 @@ fn run_one<S: reckon::System<nalgebra::Dyn>>(sys: &S, method: &str, j: &str, sta
         s.newton_iterations,
         s.jacobian_evals,
         s.lu_decompositions,
-        secs,
-        secs / steps / states as f64 * 1e9,
-        (secs2 - secs) / (steps2 - steps) / states as f64 * 1e9,
+        secs.0,
+        secs.0 / steps / states as f64 * 1e9,
+        (secs2 - secs.1) / (steps2 - steps) / states as f64 * 1e9,
         peak_rss_mib()
     );
 }

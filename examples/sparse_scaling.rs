@@ -4,8 +4,8 @@
 //! non-zeros by hand, `hand`, a stand-in for a compiled one).
 //!
 //! `cargo run --release --example sparse_scaling -- MODE`:
-//! - `scaling`: ImplicitEuler (20 fixed steps of 0.005) and Bdf (adaptive, rtol = atol =
-//!   1e-6 on `[0, 0.1]`) at 10³, 10⁴, 10⁵, 10⁶ states, one process each: median wall
+//! - `scaling`: ImplicitEuler and BDF2 (`Bdf::fixed_order(2)`), 20 fixed steps of 0.005,
+//!   and Bdf (adaptive, rtol = atol = 1e-6 on `[0, 0.1]`) at 10³, 10⁴, 10⁵, 10⁶ states, one process each: median wall
 //!   time per step per state (the whole run, set-up included: symbolic analysis, first
 //!   touch of the memory), the marginal cost per step per state ((solve to 0.4 − solve to
 //!   0.1)/(extra steps), after a first solve) and peak RSS (`VmHWM`), with J coloured, by
@@ -85,6 +85,8 @@ fn run_one<S: reckon::System<nalgebra::Dyn>>(sys: &S, method: &str, j: &str, sta
         let p = Problem::new(sys, brusselator_y0(n), (0.0, t_end));
         match method {
             "ie" => p.solve(ImplicitEuler::default(), &base.clone().fixed(0.005)),
+            // BDF2 at the same fixed step: the same work in every step after the first two
+            "bdf2" => p.solve(Bdf::default().fixed_order(2), &base.clone().fixed(0.005)),
             _ => p.solve(Bdf::default(), &base.clone().rtol(1e-6).atol(1e-6)),
         }
         .expect("solves")
@@ -124,7 +126,7 @@ fn scaling() {
     );
     println!("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let exe = std::env::current_exe().expect("own path");
-    for method in ["ie", "bdf"] {
+    for method in ["ie", "bdf2", "bdf"] {
         for j in ["coloured", "hand", "traced"] {
             for states in [1_000usize, 10_000, 100_000, 1_000_000] {
                 let out = std::process::Command::new(&exe)

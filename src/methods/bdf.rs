@@ -401,11 +401,20 @@ where
         s.newton.ensure_jacobian(f, t, x)?;
         let k = s.order;
         // predictor Σ_{j≤k} ∇ʲ y_n and the known part ψ = Σ_{j=1..k} γ_j ∇ʲ y_n / α_k
-        s.y_p.copy_from(&s.diffs[0]);
-        s.psi.fill(0.0);
-        for j in 1..=k {
-            s.y_p += &s.diffs[j];
-            s.psi.axpy(coef.gamma[j] / coef.alpha[k], &s.diffs[j], 1.0);
+        // (one pass over the differences: at 10⁶ states the vectors leave the caches)
+        let mut g = [0.0; MAX_ORDER + 1];
+        for (j, gj) in g.iter_mut().enumerate().take(k + 1).skip(1) {
+            *gj = coef.gamma[j] / coef.alpha[k];
+        }
+        for i in 0..x.len() {
+            let (mut yp, mut ps) = (s.diffs[0][i], 0.0);
+            for (j, gj) in g.iter().enumerate().take(k + 1).skip(1) {
+                let dj = s.diffs[j][i];
+                yp += dj;
+                ps += gj * dj;
+            }
+            s.y_p[i] = yp;
+            s.psi[i] = ps;
         }
         let c = h / coef.alpha[k];
         let t1 = t + h;
@@ -429,13 +438,17 @@ where
         let Some(s) = self.st.as_mut() else { return };
         let k = s.order;
         // ∇^{k+2} y_{n+1} = d − ∇^{k+1} y_n, ∇^{k+1} y_{n+1} = d, then ∇ʲ y_{n+1} = ∇ʲ y_n + ∇^{j+1} y_{n+1}
-        let (lo, hi) = s.diffs.split_at_mut(k + 2);
-        hi[0].copy_from(&s.d);
-        hi[0] -= &lo[k + 1];
-        lo[k + 1].copy_from(&s.d);
-        for j in (0..=k).rev() {
-            let (a, b) = s.diffs.split_at_mut(j + 1);
-            a[j] += &b[0];
+        // (one pass over the differences, as in the predictor)
+        assert!(s.diffs.len() > k + 2, "Bdf: difference array shorter than order + 3");
+        for i in 0..s.d.len() {
+            let di = s.d[i];
+            s.diffs[k + 2][i] = di - s.diffs[k + 1][i];
+            s.diffs[k + 1][i] = di;
+            let mut up = di;
+            for j in (0..=k).rev() {
+                up += s.diffs[j][i];
+                s.diffs[j][i] = up;
+            }
         }
         s.equal_steps += 1;
         if let Some(target) = self.fixed_order {

@@ -401,8 +401,7 @@ where
     Ok(out)
 }
 
-/// [`stiffness_along_sparse`] at every `k`-th step, `k = ⌈steps/samples⌉`: the stiffness
-/// points of a run too large to keep, `problem` driven by `method` step by
+/// The stiffness points of a run too large to keep: `problem` driven by `method` step by
 /// step (no state stored), and at every `k`-th accepted step, `k = ⌈steps/samples⌉` with
 /// `steps` the run's accepted steps (given, from an earlier run with the same options, or
 /// counted by a first run that keeps only its count; at most `samples` points when it is

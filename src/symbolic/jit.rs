@@ -125,32 +125,6 @@ fn callee(op: Op) -> Option<(&'static str, *const u8, usize)> {
     }
 }
 
-const ALL_CALLS: [Op; 23] = [
-    Op::Sin,
-    Op::Cos,
-    Op::Tan,
-    Op::Exp,
-    Op::ExpM1,
-    Op::Ln,
-    Op::Ln1p,
-    Op::Cbrt,
-    Op::Sign,
-    Op::Asin,
-    Op::Acos,
-    Op::Atan,
-    Op::Sinh,
-    Op::Cosh,
-    Op::Tanh,
-    Op::Asinh,
-    Op::Acosh,
-    Op::Atanh,
-    Op::Trunc,
-    Op::Rem,
-    Op::Powi,
-    Op::Powf,
-    Op::Atan2,
-];
-
 /// One generated function: where each output goes, and which slots of the output array
 /// are set to `0.0` first (the entries outside a dense matrix's pattern).
 pub(crate) struct Layout {
@@ -174,9 +148,11 @@ pub(crate) fn compile(program: &Program, layouts: &[Layout]) -> Option<Arc<Nativ
         .ok()?;
     let mut jb = JITBuilder::with_isa(isa, default_libcall_names());
     jb.symbol("r_sin_cos", r_sin_cos as *const u8);
-    for op in ALL_CALLS {
-        let (name, addr, _) = callee(op)?;
-        jb.symbol(name, addr);
+    // the functions this program calls
+    for ins in program.parts().1 {
+        if let Some((name, addr, _)) = callee(ins.op) {
+            jb.symbol(name, addr);
+        }
     }
     let mut module = JITModule::new(jb);
     let mut ids = Vec::new();
@@ -212,18 +188,22 @@ fn define(
     let id = module
         .declare_function(&format!("jac{k}"), Linkage::Local, &sig)
         .map_err(Box::new)?;
+    // the functions this program calls, each declared once
     let mut callees = std::collections::HashMap::new();
-    for op in ALL_CALLS {
-        let (name, _, n) = callee(op).expect("every call has a callee");
+    for ins in program.parts().1 {
+        let Some((name, _, n)) = callee(ins.op) else {
+            continue;
+        };
+        if callees.contains_key(&ins.op) {
+            continue;
+        }
         let mut s = module.make_signature();
         for _ in 0..n {
             s.params.push(AbiParam::new(types::F64));
         }
         s.returns.push(AbiParam::new(types::F64));
-        callees.insert(
-            op,
-            module.declare_function(name, Linkage::Import, &s).map_err(Box::new)?,
-        );
+        let id = module.declare_function(name, Linkage::Import, &s).map_err(Box::new)?;
+        callees.insert(ins.op, id);
     }
     let mut s = module.make_signature();
     s.params.push(AbiParam::new(types::F64));

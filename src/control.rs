@@ -72,30 +72,35 @@ where
     pub rtol: OVector<f64, D>,
     /// Absolute tolerance per component.
     pub atol: OVector<f64, D>,
+    /// How many leading components enter the error estimate ([`Options::error_components`](crate::Options::error_components));
+    /// the rest are integrated but not controlled.
+    pub controlled: usize,
 }
 
 impl<D: Dim> Weights<D>
 where
     DefaultAllocator: Allocator<D>,
 {
-    /// RMS norm `sqrt(1/n Σ (e_i / (atol_i + rtol_i·max(|x0_i|, |x1_i|)))²)`.
+    /// RMS norm `sqrt(1/m Σ_{i<m} (e_i / (atol_i + rtol_i·max(|x0_i|, |x1_i|)))²)` over the
+    /// `m =` [`controlled`](Self::controlled) leading components.
     ///
     /// ```
     /// use reckon::control::Weights;
     /// use nalgebra::vector;
-    /// let w = Weights { rtol: vector![0.0, 0.0], atol: vector![1.0, 2.0] };
-    /// let e = w.norm(&vector![3.0, 8.0], &vector![0.0, 0.0], &vector![0.0, 0.0]);
-    /// assert!((e - (12.5f64).sqrt()).abs() < 1e-15); // sqrt((9 + 16)/2)
+    /// let w = Weights { rtol: vector![0.0, 0.0, 0.0], atol: vector![1.0, 2.0, 1.0], controlled: 2 };
+    /// let e = w.norm(&vector![3.0, 8.0, 1e9], &vector![0.0, 0.0, 0.0], &vector![0.0, 0.0, 0.0]);
+    /// assert!((e - (12.5f64).sqrt()).abs() < 1e-15); // sqrt((9 + 16)/2): the third is not controlled
     /// ```
     #[inline]
     pub fn norm(&self, e: &OVector<f64, D>, x0: &OVector<f64, D>, x1: &OVector<f64, D>) -> f64 {
+        let m = self.controlled.min(e.len());
         let mut s = 0.0;
-        for i in 0..e.len() {
+        for i in 0..m {
             let sk = (self.atol[i] + self.rtol[i] * x0[i].abs().max(x1[i].abs())).max(f64::MIN_POSITIVE);
             let r = e[i] / sk;
             s += r * r;
         }
-        (s / e.len().max(1) as f64).sqrt()
+        (s / m.max(1) as f64).sqrt()
     }
 
     /// Scale of component `i` at state `x`: `atol_i + rtol_i·|x_i|` (at least the
@@ -205,7 +210,7 @@ pub fn initial_step<D: Dim>(
 where
     DefaultAllocator: Allocator<D>,
 {
-    let n = x0.len();
+    let n = w.controlled.min(x0.len());
     let (mut dnf, mut dny) = (0.0, 0.0);
     for i in 0..n {
         let sk = w.scale(i, x0[i]);

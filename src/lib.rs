@@ -18,10 +18,12 @@ pub mod linalg;
 pub mod methods;
 pub mod models;
 pub mod options;
+pub mod params;
 pub mod prelude;
 pub mod problem;
 pub mod problems;
 pub mod reckoning;
+pub mod sensitivity;
 pub mod solution;
 pub mod sparse;
 pub mod studies;
@@ -54,6 +56,7 @@ pub mod __private {
     }
 }
 pub use options::{Options, Save, StepSize};
+pub use params::ParamModel;
 pub use problem::Problem;
 pub use solution::{Solution, Stats, Switch};
 pub use system::{ClosureModel, DualSystem, System};

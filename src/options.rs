@@ -58,6 +58,11 @@ pub struct Options {
     pub save: Save,
     /// How the implicit methods solve with `I − c·J` (default [`LinearSolver::Auto`]).
     pub linear_solver: LinearSolver,
+    /// `Some(m)`: only the first `m` components enter the error estimate (and the initial
+    /// step's norms); the rest are integrated with the same steps but not controlled:
+    /// auxiliary quantities such as sensitivities ([`crate::sensitivity`]) or quadratures.
+    /// `None` (the default): every component.
+    pub error_components: Option<usize>,
 }
 
 /// The linear algebra of the implicit methods ([`ImplicitEuler`](crate::methods::ImplicitEuler),
@@ -152,6 +157,7 @@ impl Default for Options {
             max_step_failures: 10,
             save: Save::Steps,
             linear_solver: LinearSolver::Auto,
+            error_components: None,
         }
     }
 }
@@ -221,6 +227,26 @@ impl Options {
     /// Choose what the solution keeps ([`Save`]).
     pub fn save(mut self, save: Save) -> Self {
         self.save = save;
+        self
+    }
+    /// Control the error of the first `m` components only ([`Options::error_components`]).
+    ///
+    /// ```
+    /// use reckon::{model, Options, Problem, methods::Dopri5};
+    /// use nalgebra::vector;
+    /// // x' = −x with a quadrature q' = x² riding along uncontrolled
+    /// let f = model!(|_t, x: [S; 2]| vector![-x[0], x[0] * x[0]]);
+    /// let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
+    /// let both = p.solve(Dopri5::default(), &Options::default()).unwrap();
+    /// let one = p.solve(Dopri5::default(), &Options::default().error_components(1)).unwrap();
+    /// let g = model!(|_t, x: [S; 1]| vector![-x[0]]);
+    /// let alone = Problem::new(&g, vector![1.0], (0.0, 1.0)).solve(Dopri5::default(), &Options::default()).unwrap();
+    /// assert_eq!(one.t, alone.t); // the same steps as x alone
+    /// assert!(both.t.len() >= one.t.len());
+    /// assert!((one.last().1[1] - (1.0 - (-2.0f64).exp()) / 2.0).abs() < 1e-5);
+    /// ```
+    pub fn error_components(mut self, m: usize) -> Self {
+        self.error_components = Some(m);
         self
     }
     /// Choose the implicit methods' linear algebra ([`LinearSolver`]).

@@ -87,6 +87,10 @@ where
         self.events.push(event);
         self
     }
+    /// Whether any event is watched.
+    pub(crate) fn has_events(&self) -> bool {
+        !self.events.is_empty()
+    }
     /// A stepper over this problem: call [`Integrator::step`] or iterate.
     pub fn integrator<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Integrator<'_, 'a, D, S, M>> {
         Integrator::new(self, method, opts)

@@ -325,6 +325,50 @@ where
 {
     /// `f(t, x, u)` at dual `x`.
     fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D>;
+    /// Number of model parameters `n_p` (a [`model!`](crate::model) parameter block; 0 by default).
+    fn n_params(&self) -> usize {
+        0
+    }
+    /// The parameter values (empty by default).
+    fn params(&self) -> &[f64] {
+        &[]
+    }
+    /// `dx ← f(t, x, u)` and `ds ← J·S + [0 | ∂f/∂p]` for the `n × (n + n_p)` sensitivity
+    /// matrix `S` stored column-major in `s` (and `ds`): the right-hand side of
+    /// [`crate::sensitivity`]. The default evaluates [`rhs_dual`](Self::rhs_dual) at `x`
+    /// with the rows of `S` (`n_p = 0`: `n × n`) as derivative parts, so `J·S` is exact to
+    /// rounding, and `f` with [`rhs`](System::rhs).
+    ///
+    /// ```
+    /// use reckon::{model, DualSystem};
+    /// use nalgebra::vector;
+    /// let f = model!(|_, x: [S; 2]| vector![x[1], -x[0]]);
+    /// let (mut dx, mut ds) = (vector![0.0, 0.0], [0.0; 4]);
+    /// // S = I: Ṡ = J = [[0, 1], [−1, 0]] (column-major)
+    /// f.rhs_sensitivity(0.0, &vector![1.0, 0.0], &[], &[1.0, 0.0, 0.0, 1.0], &mut dx, &mut ds);
+    /// assert_eq!((dx, ds), (vector![0.0, -1.0], [0.0, -1.0, 1.0, 0.0]));
+    /// ```
+    fn rhs_sensitivity(
+        &self,
+        t: f64,
+        x: &OVector<f64, D>,
+        u: &[f64],
+        s: &[f64],
+        dx: &mut OVector<f64, D>,
+        ds: &mut [f64],
+    ) {
+        let n = x.len();
+        let (r, _) = x.shape_generic();
+        let xd = x.map_with_location(|i, _, v| {
+            DualVec64::new(
+                v,
+                num_dual::Derivative::some(OVector::<f64, D>::from_fn_generic(r, U1, |k, _| s[i + k * n])),
+            )
+        });
+        let out = self.rhs_dual(t, &xd, u);
+        self.rhs(t, x, u, dx);
+        crate::sensitivity::write_eps(&out, n, n, ds);
+    }
 }
 
 impl<D: crate::sparse::colour::ColourDim, F, G, T, Tr> DualSystem<D> for ClosureModel<D, F, G, T, Tr>
@@ -346,6 +390,23 @@ where
 {
     fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D> {
         (**self).rhs_dual(t, x, u)
+    }
+    fn n_params(&self) -> usize {
+        (**self).n_params()
+    }
+    fn params(&self) -> &[f64] {
+        (**self).params()
+    }
+    fn rhs_sensitivity(
+        &self,
+        t: f64,
+        x: &OVector<f64, D>,
+        u: &[f64],
+        s: &[f64],
+        dx: &mut OVector<f64, D>,
+        ds: &mut [f64],
+    ) {
+        (**self).rhs_sensitivity(t, x, u, s, dx, ds)
     }
 }
 
@@ -530,6 +591,121 @@ macro_rules! model {
              autodiff) or as a plain `t` (an f64)"
         )
     };
+    // a parameter block `p: [S; P] = [p₁, …]`: a ParamModel (sensitivities to p)
+    (|$t:tt : $ts:ident, $x:ident : [$s:ident; $n:tt], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        ::core::compile_error!(
+            "model!: a parameter block goes with a plain `t` or `_` time, not `t: S` \
+             (write `|t, x: [S; N], p: [S; P] = [...]|`)"
+        )
+    };
+    (|$t:tt : $ts:ident, $x:ident : [$s:ident; $n:tt], $u:ident : [$m:expr], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        ::core::compile_error!(
+            "model!: a parameter block goes with a plain `t` or `_` time, not `t: S` \
+             (write `|t, x: [S; N], p: [S; P] = [...]|`)"
+        )
+    };
+    (|_, $x:ident : [$s:ident; Dyn], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        $crate::model!(@pdyn auto, 0, _, $x, $s, _, $p, $np, $pv, $body)
+    };
+    (|_, $x:ident : [$s:ident; Dyn], $u:tt : [$m:expr], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        $crate::model!(@pdyn auto, $m, _, $x, $s, $u, $p, $np, $pv, $body)
+    };
+    (|_, $x:ident : [$s:ident; $n:expr], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        $crate::model!(@pfixed auto, 0, $n, _, $x, $s, _, $p, $np, $pv, $body)
+    };
+    (|_, $x:ident : [$s:ident; $n:expr], $u:tt : [$m:expr], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        $crate::model!(@pfixed auto, $m, $n, _, $x, $s, $u, $p, $np, $pv, $body)
+    };
+    (|$t:tt, $x:ident : [$s:ident; Dyn], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        $crate::model!(@pdyn plain, 0, $t, $x, $s, _, $p, $np, $pv, $body)
+    };
+    (|$t:tt, $x:ident : [$s:ident; Dyn], $u:tt : [$m:expr], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        $crate::model!(@pdyn plain, $m, $t, $x, $s, $u, $p, $np, $pv, $body)
+    };
+    (|$t:tt, $x:ident : [$s:ident; $n:expr], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        $crate::model!(@pfixed plain, 0, $n, $t, $x, $s, _, $p, $np, $pv, $body)
+    };
+    (|$t:tt, $x:ident : [$s:ident; $n:expr], $u:tt : [$m:expr], $p:ident : [$ps:ident; $np:expr] = $pv:tt| $body:expr) => {
+        $crate::model!(@pfixed plain, $m, $n, $t, $x, $s, $u, $p, $np, $pv, $body)
+    };
+    (@ptime plain, $model:expr) => { $model };
+    (@ptime auto, $model:expr) => { $model.with_time_derivative($crate::system::Autonomous) };
+    (@pfixed $mode:ident, $m:expr, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $p:ident, $np:expr, $pv:tt, $body:expr) => {{
+        let __pv: [f64; $np] = $pv;
+        $crate::model!(@ptime $mode, $crate::ParamModel::<
+            $crate::nalgebra::Const<{ $n }>,
+            $crate::nalgebra::Const<{ $n + $np }>,
+            _,
+            _,
+        >::new(
+            $m,
+            &__pv,
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            #[inline(always)]
+            move |__t: f64,
+                  $x: &$crate::nalgebra::SVector<f64, { $n }>,
+                  $u: &[f64],
+                  $p: &[f64]|
+                  -> $crate::nalgebra::SVector<f64, { $n }> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
+                #[allow(dead_code)]
+                type $s = f64;
+                $crate::model!(@tlet $mode, $t, $s, __t);
+                $crate::__private::lift_literals!($crate, $body)
+            },
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            move |__t: f64,
+                  $x: &$crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n + $np }>, { $n }>,
+                  $u: &[f64],
+                  $p: &[$crate::num_dual::DualSVec64<{ $n + $np }>]|
+                  -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n + $np }>, { $n }> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
+                #[allow(dead_code)]
+                type $s = $crate::num_dual::DualSVec64<{ $n + $np }>;
+                $crate::model!(@tlet $mode, $t, $s, __t);
+                $crate::__private::lift_literals!($crate, $body)
+            },
+        ))
+    }};
+    (@pdyn $mode:ident, $m:expr, $t:tt, $x:ident, $s:ident, $u:tt, $p:ident, $np:expr, $pv:tt, $body:expr) => {{
+        let __pv: [f64; $np] = $pv;
+        $crate::model!(@ptime $mode, $crate::ParamModel::<$crate::nalgebra::Dyn, $crate::nalgebra::Dyn, _, _>::new(
+            $m,
+            &__pv,
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            move |__t: f64, $x: &$crate::nalgebra::DVector<f64>, $u: &[f64], $p: &[f64]| -> $crate::nalgebra::DVector<f64> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
+                #[allow(dead_code)]
+                type $s = f64;
+                $crate::model!(@tlet $mode, $t, $s, __t);
+                $crate::__private::lift_literals!($crate, $body)
+            },
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            move |__t: f64,
+                  $x: &$crate::nalgebra::DVector<$crate::num_dual::DualDVec64>,
+                  $u: &[f64],
+                  $p: &[$crate::num_dual::DualDVec64]|
+                  -> $crate::nalgebra::DVector<$crate::num_dual::DualDVec64> {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
+                #[allow(dead_code)]
+                type $s = $crate::num_dual::DualDVec64;
+                $crate::model!(@tlet $mode, $t, $s, __t);
+                $crate::__private::lift_literals!($crate, $body)
+            },
+        ))
+    }};
     // typed time `t: S`: exact ∂f/∂t from a third instantiation at Dual64
     (|$t:tt : $ts:ident, $x:ident : [$s:ident; Dyn]| $body:expr) => {
         $crate::model!(@dyn typed, 0, $t, $x, $s, _, $body)

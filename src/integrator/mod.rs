@@ -114,6 +114,16 @@ where
         let w = Weights {
             rtol: opts.rtol.expand("rtol", r)?,
             atol: opts.atol.expand("atol", r)?,
+            controlled: match opts.error_components {
+                None => x0.len(),
+                Some(m) if (1..=x0.len()).contains(&m) => m,
+                Some(m) => {
+                    return Err(Error::invalid(
+                        "error_components",
+                        format!("{m} for a state of {} components (1 to {} allowed)", x0.len(), x0.len()),
+                    ));
+                }
+            },
         };
         if (0..x0.len()).any(|i| w.rtol[i] == 0.0 && w.atol[i] == 0.0) {
             return Err(Error::invalid("atol", "rtol and atol are both zero for a component"));

@@ -166,6 +166,8 @@ where
     err: OVector<f64, D>,
     /// Tolerance scale at the accepted `y_{n+1}`, for the order-selection norms.
     scale: OVector<f64, D>,
+    /// Leading components in the error estimate ([`Weights::controlled`]).
+    controlled: usize,
     /// Step factor of the last attempt's Newton work: `(2m + 1)/(2m + n)` for `n` of
     /// `m` iterations (scipy's; 1 after one iteration, lower after many).
     safety: f64,
@@ -294,7 +296,7 @@ where
 
     /// Weighted RMS of `c·v` in the scale of the accepted state.
     fn norm(&self, c: f64, v: &OVector<f64, D>) -> f64 {
-        let n = v.len();
+        let n = self.controlled.min(v.len());
         let s: f64 = (0..n).map(|i| (c * v[i] / self.scale[i]).powi(2)).sum();
         (s / n.max(1) as f64).sqrt()
     }
@@ -350,6 +352,7 @@ where
             d: zero.clone(),
             err: zero.clone(),
             scale: zero.map(|_| 1.0),
+            controlled: zero.len(),
             safety: 1.0,
         });
         Ok(())
@@ -427,6 +430,7 @@ where
         for i in 0..x.len() {
             s.scale[i] = w.scale(i, x_new[i]);
         }
+        s.controlled = w.controlled;
         if !adaptive {
             return Ok(Outcome::Done { err: 0.0 });
         }

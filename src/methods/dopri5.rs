@@ -217,6 +217,8 @@ where
         if !adaptive {
             return Ok(Outcome::Done { err: 0.0 });
         }
+        // the error estimate covers the controlled components only
+        let n = w.controlled.min(n);
         let (xs, xn) = (&x.as_slice()[..n], &x_new.as_slice()[..n]);
         let (rtol, atol) = (&w.rtol.as_slice()[..n], &w.atol.as_slice()[..n]);
         let (k1, k3, k4, k5, k6, k7) = (

@@ -53,6 +53,10 @@ impl<F> Exact<F> {
     pub fn new(flow: F) -> Self {
         Exact { flow }
     }
+    /// The flow map.
+    pub fn into_flow(self) -> F {
+        self.flow
+    }
 }
 
 impl<D: Dim, F: Flow<D>> Method<D> for Exact<F>

@@ -46,3 +46,45 @@ pub fn flow(_t: f64, x: &Vector3<f64>, u: &[f64], h: f64) -> Vector3<f64> {
     let mid = x[2] + 0.5 * dth;
     Vector3::new(x[0] + d * mid.cos(), x[1] + d * mid.sin(), x[2] + dth)
 }
+
+/// [`flow`] as a value that is also a [`DualFlow`](crate::sensitivity::DualFlow): the
+/// exact arc at dual `x`, so that [`Exact`](crate::methods::Exact) gives the exact
+/// sensitivities `∂x(t)/∂x₀` ([`crate::sensitivity::solve`]): `∂φ_h/∂x = [[1, 0, −d sin m], [0, 1, d cos m], [0, 0, 1]]`
+/// with `m = θ + Δθ/2`.
+///
+/// ```
+/// use reckon::{methods::Flow, models::unicycle};
+/// use nalgebra::vector;
+/// let (x, u) = (vector![1.0, 2.0, 0.3], [1.5, 0.4]);
+/// let mut out = vector![0.0, 0.0, 0.0];
+/// unicycle::ExactFlow.flow(0.0, &x, &u, 0.7, &mut out);
+/// assert_eq!(out, unicycle::flow(0.0, &x, &u, 0.7));
+/// ```
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ExactFlow;
+
+impl crate::methods::Flow<Const<3>> for ExactFlow {
+    #[inline(always)]
+    fn flow(&self, t: f64, x: &Vector3<f64>, u: &[f64], h: f64, out: &mut Vector3<f64>) {
+        *out = flow(t, x, u, h);
+    }
+}
+
+impl crate::sensitivity::DualFlow<Const<3>> for ExactFlow {
+    fn flow_dual(
+        &self,
+        _t: f64,
+        x: &Vector3<num_dual::DualSVec64<3>>,
+        u: &[f64],
+        h: f64,
+    ) -> Vector3<num_dual::DualSVec64<3>> {
+        use num_dual::DualNum;
+        let v = u.first().copied().unwrap_or(f64::NAN);
+        let w = u.get(1).copied().unwrap_or(f64::NAN);
+        let dth = w * h;
+        let d = v * h * sinc(0.5 * dth);
+        let mid = x[2] + 0.5 * dth;
+        let (s, c) = mid.sin_cos();
+        Vector3::new(x[0] + c * d, x[1] + s * d, x[2] + dth)
+    }
+}

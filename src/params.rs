@@ -1,0 +1,233 @@
+//! Models with a parameter block: `x' = f(t, x, u; p)`, with `p` differentiable like the
+//! state. Built by [`model!`](crate::model) from `|t, x: [S; N], p: [S; P] = [p₁, …]| body`.
+
+use crate::error::{Error, Result};
+use crate::system::{NoTimeDerivative, System, TimeDerivative};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U1};
+use num_dual::{Derivative, DualVec64};
+use std::marker::PhantomData;
+
+/// A model `x' = f(t, x, u; p)` whose body is instantiated at `f64` (`F`) and at num-dual's
+/// `DualVec64<M>` with `M = n + n_p` directions (`G`): the first `n` directions carry
+/// `∂/∂x`, the last `n_p` carry `∂/∂p`. `J = ∂f/∂x` and the sensitivity right-hand side
+/// `J·s + ∂f/∂p` ([`crate::sensitivity`]) both come from `G`, exact to rounding.
+///
+/// The parameter values live in the model: [`params`](Self::params),
+/// [`set_params`](Self::set_params), [`with_params`](Self::with_params).
+///
+/// ```
+/// use reckon::{model, System};
+/// use nalgebra::{vector, Matrix1};
+/// // exponential decay x' = −k·x with k a parameter (nominal 2)
+/// let f = model!(|_, x: [S; 1], p: [S; 1] = [2.0]| vector![-(p[0] * x[0])]);
+/// assert_eq!(f.params(), &[2.0]);
+/// let g = f.with_params(&[3.0]).unwrap();
+/// let (mut dx, mut j) = (vector![0.0], Matrix1::zeros());
+/// g.rhs(0.0, &vector![2.0], &[], &mut dx);
+/// g.jacobian(0.0, &vector![2.0], &[], &mut j);
+/// assert_eq!((dx[0], j[(0, 0)]), (-6.0, -3.0));
+/// ```
+pub struct ParamModel<D, M, F, G, T = NoTimeDerivative> {
+    inputs: usize,
+    params: Vec<f64>,
+    f: F,
+    g: G,
+    dt: T,
+    _dim: PhantomData<(D, M)>,
+}
+
+impl<D, M, F: Clone, G: Clone, T: Clone> Clone for ParamModel<D, M, F, G, T> {
+    fn clone(&self) -> Self {
+        ParamModel {
+            inputs: self.inputs,
+            params: self.params.clone(),
+            f: self.f.clone(),
+            g: self.g.clone(),
+            dt: self.dt.clone(),
+            _dim: PhantomData,
+        }
+    }
+}
+
+impl<D, M, F, G> ParamModel<D, M, F, G> {
+    /// Pair a real and a dual instantiation of the same body with nominal parameters `p`;
+    /// `inputs` is the number of held inputs the body reads. Prefer [`model!`](crate::model).
+    pub fn new(inputs: usize, p: &[f64], f: F, g: G) -> Self {
+        ParamModel {
+            inputs,
+            params: p.to_vec(),
+            f,
+            g,
+            dt: NoTimeDerivative,
+            _dim: PhantomData,
+        }
+    }
+}
+
+impl<D, M, F, G, T> ParamModel<D, M, F, G, T> {
+    /// The same model with `∂f/∂t` given by `dt` (`model!` gives [`Autonomous`](crate::system::Autonomous) for `|_, …|`).
+    pub fn with_time_derivative<T2>(self, dt: T2) -> ParamModel<D, M, F, G, T2> {
+        ParamModel {
+            inputs: self.inputs,
+            params: self.params,
+            f: self.f,
+            g: self.g,
+            dt,
+            _dim: PhantomData,
+        }
+    }
+    /// The current parameter values `p`.
+    pub fn params(&self) -> &[f64] {
+        &self.params
+    }
+    /// Set `p`: [`Error::InvalidInput`] for the wrong number of values or a non-finite one.
+    pub fn set_params(&mut self, p: &[f64]) -> Result<()> {
+        if p.len() != self.params.len() {
+            return Err(Error::invalid(
+                "params",
+                format!("{} values for a model with {} parameters", p.len(), self.params.len()),
+            ));
+        }
+        if let Some(i) = p.iter().position(|v| !v.is_finite()) {
+            return Err(Error::invalid("params", format!("parameter {i} is {}", p[i])));
+        }
+        self.params.copy_from_slice(p);
+        Ok(())
+    }
+    /// The same model with parameters `p` ([`set_params`](Self::set_params)).
+    pub fn with_params(mut self, p: &[f64]) -> Result<Self> {
+        self.set_params(p)?;
+        Ok(self)
+    }
+}
+
+impl<D, M, F, G, T> System<D> for ParamModel<D, M, F, G, T>
+where
+    D: Dim,
+    M: Dim,
+    F: Fn(f64, &OVector<f64, D>, &[f64], &[f64]) -> OVector<f64, D>,
+    G: Fn(f64, &OVector<DualVec64<M>, D>, &[f64], &[DualVec64<M>]) -> OVector<DualVec64<M>, D>,
+    T: TimeDerivative<D>,
+    DefaultAllocator: Allocator<D> + Allocator<M>,
+{
+    fn inputs(&self) -> usize {
+        self.inputs
+    }
+    #[inline(always)]
+    fn rhs(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dx: &mut OVector<f64, D>) {
+        *dx = (self.f)(t, x, u, &self.params);
+    }
+    /// `J` from the dual body with `x` seeded in the first `n` directions and `p` constant.
+    fn jacobian(&self, t: f64, x: &OVector<f64, D>, u: &[f64], jac: &mut OMatrix<f64, D, D>)
+    where
+        DefaultAllocator: Allocator<D, D>,
+    {
+        let n = x.len();
+        let md = M::from_usize(n + self.params.len());
+        let xd = x.map_with_location(|i, _, v| DualVec64::new(v, Derivative::derivative_generic(md, U1, i)));
+        let pd: Vec<DualVec64<M>> = self
+            .params
+            .iter()
+            .map(|&v| DualVec64::new(v, Derivative::none()))
+            .collect();
+        let r = (self.g)(t, &xd, u, &pd);
+        if r.len() != n {
+            jac.fill(f64::NAN);
+            return;
+        }
+        for i in 0..n {
+            match &r[i].eps.0 {
+                Some(e) => {
+                    for j in 0..n {
+                        jac[(i, j)] = e[j];
+                    }
+                }
+                None => {
+                    for j in 0..n {
+                        jac[(i, j)] = 0.0;
+                    }
+                }
+            }
+        }
+    }
+    fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
+        self.dt.time_derivative(t, x, u, dfdt)
+    }
+}
+
+impl<D, M, F, G, T> crate::DualSystem<D> for ParamModel<D, M, F, G, T>
+where
+    D: Dim,
+    M: Dim,
+    F: Fn(f64, &OVector<f64, D>, &[f64], &[f64]) -> OVector<f64, D>,
+    G: Fn(f64, &OVector<DualVec64<M>, D>, &[f64], &[DualVec64<M>]) -> OVector<DualVec64<M>, D>,
+    T: TimeDerivative<D>,
+    DefaultAllocator: Allocator<D> + Allocator<M> + Allocator<U1, D>,
+{
+    /// `f` at dual `x` (`n` directions): the body at `M` directions with `x`'s derivative
+    /// parts padded by zeros for `p`, truncated back to `n`.
+    fn rhs_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64]) -> OVector<DualVec64<D>, D> {
+        let n = x.len();
+        let md = M::from_usize(n + self.params.len());
+        let xd = x.map(|v| {
+            let eps = v
+                .eps
+                .0
+                .as_ref()
+                .map(|e| OVector::<f64, M>::from_fn_generic(md, U1, |k, _| if k < n { e[k] } else { 0.0 }));
+            DualVec64::new(v.re, Derivative::new(eps))
+        });
+        let pd: Vec<DualVec64<M>> = self
+            .params
+            .iter()
+            .map(|&v| DualVec64::new(v, Derivative::none()))
+            .collect();
+        let r = (self.g)(t, &xd, u, &pd);
+        let (rn, _) = x.shape_generic();
+        r.map(|v| {
+            let eps = v
+                .eps
+                .0
+                .as_ref()
+                .map(|e| OVector::<f64, D>::from_fn_generic(rn, U1, |k, _| e[k]));
+            DualVec64::new(v.re, Derivative::new(eps))
+        })
+    }
+    fn n_params(&self) -> usize {
+        self.params.len()
+    }
+    fn params(&self) -> &[f64] {
+        &self.params
+    }
+    fn rhs_sensitivity(
+        &self,
+        t: f64,
+        x: &OVector<f64, D>,
+        u: &[f64],
+        s: &[f64],
+        dx: &mut OVector<f64, D>,
+        ds: &mut [f64],
+    ) {
+        let n = x.len();
+        let np = self.params.len();
+        let m = n + np;
+        let md = M::from_usize(m);
+        // x_i + Σ_k s_ik ε_k, p_j + ε_{n+j}
+        let xd = x.map_with_location(|i, _, v| {
+            DualVec64::new(
+                v,
+                Derivative::some(OVector::<f64, M>::from_fn_generic(md, U1, |k, _| s[i + k * n])),
+            )
+        });
+        let pd: Vec<DualVec64<M>> = self
+            .params
+            .iter()
+            .enumerate()
+            .map(|(j, &v)| DualVec64::new(v, Derivative::derivative_generic(md, U1, n + j)))
+            .collect();
+        let r = (self.g)(t, &xd, u, &pd);
+        *dx = (self.f)(t, x, u, &self.params);
+        crate::sensitivity::write_eps(&r, n, m, ds);
+    }
+}

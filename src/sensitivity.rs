@@ -1,0 +1,414 @@
+//! Forward sensitivities `S(t) = ∂x(t)/∂(x₀, p)` of a solution, through every method.
+//!
+//! The state is augmented with the `n × m` sensitivity matrix `S` (`m = n + n_p`: the
+//! initial state's `n` columns, then one per model parameter), and the method integrates
+//! `x' = f(t, x, u; p)`, `S' = J·S + [0 | ∂f/∂p]`, `S(t₀) = [I | 0]`. The right-hand side
+//! of `S` comes from one evaluation of the model's body at num-dual numbers whose
+//! derivative parts are the rows of `S` (and the unit vectors of `p`), so `J·S + ∂f/∂p`
+//! is exact to rounding, never a difference quotient.
+//!
+//! **What `S` is the derivative of.** For a linear multistep or Runge–Kutta method with
+//! the steps it took, integrating the augmented system gives exactly the derivative of the
+//! computed `x` with respect to `x₀` and `p` (internal differentiation: the method's
+//! stages are linear in `f`, so differentiating the step and stepping the variational
+//! system are the same computation) — for [`Dopri5`](crate::methods::Dopri5),
+//! [`ExplicitEuler`](crate::methods::ExplicitEuler) and [`Exact`](crate::methods::Exact)
+//! to rounding; for [`ImplicitEuler`](crate::methods::ImplicitEuler) and
+//! [`Bdf`](crate::methods::Bdf) it is the derivative of the solution of the discrete
+//! implicit equations (the implicit function theorem), to the Newton tolerance, because
+//! Newton's iterate is not the exact root. [`Rodas5P`](crate::methods::Rodas5P) has the
+//! Jacobian in its formula, so the derivative of its step needs the second derivatives
+//! `∂(J·S + [0 | ∂f/∂p])/∂x` (the lower-left block of the augmented Jacobian): these are
+//! central differences of the exact dual `J·S` (relative error about 1e-10, the one
+//! difference quotient here; the `x` block `J` stays exact), so Rodas5P's `S` is the
+//! derivative of its computed solution to about that accuracy.
+//!
+//! **Steps.** By default the error estimate covers `x` only
+//! ([`Options::error_components`](crate::Options::error_components)), so an explicit
+//! method takes the same steps as the plain solve and returns the same `x` bit for bit;
+//! with [`SensitivityOptions::error_control`] the sensitivities are controlled too
+//! (tolerances repeated for each column).
+//!
+//! ```
+//! use reckon::{model, Options, Problem, methods::Dopri5, sensitivity::{self, SensitivityOptions}};
+//! use nalgebra::vector;
+//! // x' = −k·x: x(t) = x₀·e^{−kt}, ∂x/∂x₀ = e^{−kt}, ∂x/∂k = −t·x₀·e^{−kt}
+//! let f = model!(|_, x: [S; 1], p: [S; 1] = [0.5]| vector![-(p[0] * x[0])]);
+//! let p = Problem::new(&f, vector![2.0], (0.0, 3.0));
+//! let o = Options::default().rtol(1e-10).atol(1e-12);
+//! let sol = sensitivity::solve(&p, Dopri5::default(), &o, &SensitivityOptions::default()).unwrap();
+//! let e = (-1.5f64).exp();
+//! assert!((sol.last_x()[0] - 2.0 * e).abs() < 1e-9);
+//! assert!((sol.wrt_x0(sol.t.len() - 1)[(0, 0)] - e).abs() < 1e-9);
+//! assert!((sol.wrt_params(sol.t.len() - 1)[(0, 0)] + 3.0 * 2.0 * e).abs() < 1e-8);
+//! ```
+
+use crate::control::Tolerance;
+use crate::error::{Error, Result};
+use crate::methods::{Exact, Flow, Method};
+use crate::options::Options;
+use crate::problem::Problem;
+use crate::solution::{Solution, Stats};
+use crate::system::{DualSystem, System};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, U1};
+use num_dual::{Derivative, DualVec64};
+use std::marker::PhantomData;
+
+/// The derivative parts of `r` (`n` duals with `m` directions) into `ds` column-major;
+/// NaN for a result of the wrong length (the driver reports it).
+pub(crate) fn write_eps<D: Dim, M: Dim>(r: &OVector<DualVec64<M>, D>, n: usize, m: usize, ds: &mut [f64])
+where
+    DefaultAllocator: Allocator<D> + Allocator<M>,
+{
+    if r.len() != n {
+        ds.fill(f64::NAN);
+        return;
+    }
+    for i in 0..n {
+        match &r[i].eps.0 {
+            Some(e) => {
+                for k in 0..m {
+                    ds[i + k * n] = e[k];
+                }
+            }
+            None => {
+                for k in 0..m {
+                    ds[i + k * n] = 0.0;
+                }
+            }
+        }
+    }
+}
+
+/// How [`solve`] treats the sensitivities.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SensitivityOptions {
+    /// Put `S` in the error estimate of adaptive methods too (default `false`: `x` only,
+    /// so that the steps are those of the plain solve).
+    pub error_control: bool,
+}
+
+/// `x' = f`, `Ṡ = J·S + [0 | ∂f/∂p]` as one [`System`] on the stacked state
+/// `z = (x, vec S)` of `n·(1 + m)` components.
+pub struct Augmented<'s, D, S> {
+    sys: &'s S,
+    n: usize,
+    m: usize,
+    _dim: PhantomData<D>,
+}
+
+impl<'s, D: Dim, S: DualSystem<D>> Augmented<'s, D, S>
+where
+    DefaultAllocator: Allocator<D> + Allocator<U1, D>,
+{
+    /// The augmented system of `sys` for a state of `n` components.
+    pub fn new(sys: &'s S, n: usize) -> Self {
+        Augmented {
+            sys,
+            n,
+            m: n + sys.n_params(),
+            _dim: PhantomData,
+        }
+    }
+    fn x_of(&self, z: &DVector<f64>) -> OVector<f64, D> {
+        OVector::<f64, D>::from_column_slice_generic(D::from_usize(self.n), U1, &z.as_slice()[..self.n])
+    }
+}
+
+impl<D: Dim, S: DualSystem<D>> System<Dyn> for Augmented<'_, D, S>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    fn inputs(&self) -> usize {
+        self.sys.inputs()
+    }
+    fn rhs(&self, t: f64, z: &DVector<f64>, u: &[f64], dz: &mut DVector<f64>) {
+        let n = self.n;
+        if z.len() != n * (1 + self.m) || dz.len() != z.len() {
+            *dz = DVector::from_element(z.len(), f64::NAN);
+            return;
+        }
+        let x = self.x_of(z);
+        let mut dx = x.clone();
+        let (zs, dzs) = (z.as_slice(), dz.as_mut_slice());
+        self.sys.rhs_sensitivity(t, &x, u, &zs[n..], &mut dx, &mut dzs[n..]);
+        if dx.len() != n {
+            dzs.fill(f64::NAN);
+            return;
+        }
+        dzs[..n].copy_from_slice(dx.as_slice());
+    }
+    /// `[[J, 0], [∂(J·S + [0 | ∂f/∂p])/∂x, blockdiag(J, …, J)]]`: `J` exact (the model's
+    /// [`jacobian`](System::jacobian)); the second-derivative block by central differences
+    /// of the exact `J·S + [0 | ∂f/∂p]` in each `x_j` (step `∛ε·max(|x_j|, 1)`, relative error
+    /// about 1e-10): the one difference quotient in the sensitivities (see the module's note).
+    fn jacobian(&self, t: f64, z: &DVector<f64>, u: &[f64], jac: &mut DMatrix<f64>) {
+        let (n, m) = (self.n, self.m);
+        let x = self.x_of(z);
+        let mut j = OMatrix::<f64, D, D>::zeros_generic(D::from_usize(n), D::from_usize(n));
+        self.sys.jacobian(t, &x, u, &mut j);
+        jac.fill(0.0);
+        for b in 0..=m {
+            for c in 0..n {
+                for r in 0..n {
+                    jac[(b * n + r, b * n + c)] = j[(r, c)];
+                }
+            }
+        }
+        let s = &z.as_slice()[n..];
+        let (mut dx, mut up, mut down) = (x.clone(), vec![0.0; n * m], vec![0.0; n * m]);
+        for c in 0..n {
+            let d = f64::EPSILON.cbrt() * x[c].abs().max(1.0);
+            let mut xp = x.clone();
+            xp[c] += d;
+            let dp = xp[c] - x[c];
+            self.sys.rhs_sensitivity(t, &xp, u, s, &mut dx, &mut up);
+            xp[c] = x[c] - d;
+            let dm = x[c] - xp[c];
+            self.sys.rhs_sensitivity(t, &xp, u, s, &mut dx, &mut down);
+            for r in 0..n * m {
+                jac[(n + r, c)] = (up[r] - down[r]) / (dp + dm);
+            }
+        }
+    }
+}
+
+/// A flow map that can also be evaluated at num-dual numbers, so that its derivative
+/// `∂φ_h/∂x` carries the sensitivities of [`Exact`] ([`solve`]).
+///
+/// ```
+/// use reckon::{methods::Flow, models::unicycle, sensitivity::DualFlow};
+/// use nalgebra::{vector, Vector3};
+/// use num_dual::{DualSVec64, Derivative};
+/// let x = vector![0.0, 0.0, 0.3];
+/// let xd: Vector3<DualSVec64<3>> = x.map_with_location(|i, _, v| DualSVec64::new(v, Derivative::derivative_generic(nalgebra::Const::<3>, nalgebra::U1, i)));
+/// let y = unicycle::ExactFlow.flow_dual(0.0, &xd, &[1.0, 0.0], 2.0);
+/// // straight line: ∂x₁/∂θ = −2 sin 0.3
+/// assert!((y[0].eps.unwrap_generic(nalgebra::Const::<3>, nalgebra::U1)[2] + 2.0 * 0.3f64.sin()).abs() < 1e-15);
+/// ```
+pub trait DualFlow<D: Dim>: Flow<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// `φ_h(t, x, u)` at dual `x` (derivative parts in `D`'s `n` directions).
+    fn flow_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64], h: f64) -> OVector<DualVec64<D>, D>;
+}
+
+/// The exact flow of the augmented system: `x₁ = φ_h(x₀)`, `S₁ = ∂φ_h/∂x (x₀)·S₀`.
+pub struct AugmentedFlow<D, F> {
+    flow: F,
+    n: usize,
+    _dim: PhantomData<D>,
+}
+
+impl<D: Dim, F: DualFlow<D>> Flow<Dyn> for AugmentedFlow<D, F>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn flow(&self, t: f64, z: &DVector<f64>, u: &[f64], h: f64, out: &mut DVector<f64>) {
+        let n = self.n;
+        let r = D::from_usize(n);
+        let s = &z.as_slice()[n..];
+        let xd = OVector::<DualVec64<D>, D>::from_fn_generic(r, U1, |i, _| {
+            DualVec64::new(
+                z[i],
+                Derivative::some(OVector::<f64, D>::from_fn_generic(r, U1, |k, _| s[i + k * n])),
+            )
+        });
+        let y = self.flow.flow_dual(t, &xd, u, h);
+        if y.len() != n || out.len() != z.len() {
+            *out = DVector::from_element(z.len(), f64::NAN);
+            return;
+        }
+        let mut x1 = OVector::<f64, D>::zeros_generic(r, U1);
+        self.flow.flow(
+            t,
+            &OVector::<f64, D>::from_column_slice_generic(r, U1, &z.as_slice()[..n]),
+            u,
+            h,
+            &mut x1,
+        );
+        let o = out.as_mut_slice();
+        o[..n].copy_from_slice(x1.as_slice());
+        write_eps(&y, n, n, &mut o[n..]);
+    }
+}
+
+/// A method that can integrate the augmented system of [`solve`]: every method of
+/// [`crate::methods`] (at `Dyn`), and [`Exact`] with a [`DualFlow`].
+pub trait Augment<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// The method on the stacked state.
+    type Method: Method<Dyn>;
+    /// For a state of `n` components and a model of `n_params` parameters.
+    fn augment(self, n: usize, n_params: usize) -> Result<Self::Method>;
+}
+
+macro_rules! augment_as_is {
+    ($($ty:ty),*) => {$(
+        impl<D: Dim> Augment<D> for $ty
+        where
+            DefaultAllocator: Allocator<D>,
+        {
+            type Method = $ty;
+            fn augment(self, _n: usize, _n_params: usize) -> Result<Self::Method> {
+                Ok(self)
+            }
+        }
+    )*};
+}
+
+augment_as_is!(
+    crate::methods::ExplicitEuler,
+    crate::methods::Dopri5<Dyn>,
+    crate::methods::ImplicitEuler<Dyn>,
+    crate::methods::Bdf<Dyn>,
+    crate::methods::Rodas5P<Dyn>,
+    crate::methods::Auto<Dyn>
+);
+
+impl<D: Dim, F: DualFlow<D>> Augment<D> for Exact<F>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    type Method = Exact<AugmentedFlow<D, F>>;
+    fn augment(self, n: usize, n_params: usize) -> Result<Self::Method> {
+        if n_params > 0 {
+            return Err(Error::invalid(
+                "method",
+                "an exact flow gives no derivatives with respect to model parameters: use a \
+                 time-stepping method for a model with a parameter block",
+            ));
+        }
+        Ok(Exact::new(AugmentedFlow {
+            flow: self.into_flow(),
+            n,
+            _dim: PhantomData,
+        }))
+    }
+}
+
+/// A solution with its sensitivities at the saved times.
+#[derive(Debug, Clone)]
+pub struct Sensitivities<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Saved times.
+    pub t: Vec<f64>,
+    /// States at the saved times.
+    pub x: Vec<OVector<f64, D>>,
+    /// `S = ∂x/∂(x₀, p)` at the saved times, `n × (n + n_p)`.
+    pub s: Vec<DMatrix<f64>>,
+    /// Number of model parameters.
+    pub n_params: usize,
+    /// Counters of the augmented run (each `f` evaluation is one dual evaluation of the body).
+    pub stats: Stats,
+    /// The method's name.
+    pub method: &'static str,
+}
+
+impl<D: Dim> Sensitivities<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// `∂x(t_k)/∂x₀` (`n × n`).
+    pub fn wrt_x0(&self, k: usize) -> DMatrix<f64> {
+        let n = self.s[k].nrows();
+        self.s[k].columns(0, n).into_owned()
+    }
+    /// `∂x(t_k)/∂p` (`n × n_p`).
+    pub fn wrt_params(&self, k: usize) -> DMatrix<f64> {
+        let n = self.s[k].nrows();
+        self.s[k].columns(n, self.n_params).into_owned()
+    }
+    /// The last state.
+    pub fn last_x(&self) -> &OVector<f64, D> {
+        self.x.last().expect("a solution has at least its initial point")
+    }
+}
+
+/// Integrate `problem` with its sensitivities `S = ∂x/∂(x₀, p)` (see the module's doc):
+/// `method` is any method of [`crate::methods`] (`Dopri5::default()`, `Bdf::default()`, …,
+/// inferred at `Dyn`) or `Exact::new(flow)` with a [`DualFlow`].
+///
+/// Errors: those of the solve, and [`Error::InvalidInput`] for a problem with events (the
+/// event times' own sensitivities are not computed).
+///
+/// ```
+/// use reckon::{methods::Exact, models::unicycle, sensitivity::{self, SensitivityOptions}, Options, Problem};
+/// use nalgebra::vector;
+/// let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 2.0)).inputs(vec![1.0, 0.0]);
+/// let sol = sensitivity::solve(&p, Exact::new(unicycle::ExactFlow), &Options::default(), &SensitivityOptions::default()).unwrap();
+/// let s = sol.wrt_x0(sol.t.len() - 1);
+/// assert!((s[(1, 2)] - 2.0).abs() < 1e-15); // ∂y/∂θ₀ = distance driven
+/// ```
+pub fn solve<D, S, M>(
+    problem: &Problem<'_, D, S>,
+    method: M,
+    opts: &Options,
+    sens: &SensitivityOptions,
+) -> Result<Sensitivities<D>>
+where
+    D: Dim,
+    S: DualSystem<D>,
+    M: Augment<D>,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    if problem.has_events() {
+        return Err(Error::invalid(
+            "events",
+            "sensitivities are not computed for a problem with events (the event times depend on x₀ and p)",
+        ));
+    }
+    let n = problem.x0.len();
+    let np = problem.system.n_params();
+    let m = n + np;
+    let method = method.augment(n, np)?;
+    let aug = Augmented::new(&problem.system, n);
+    let mut z0 = DVector::zeros(n * (1 + m));
+    z0.rows_mut(0, n).copy_from_slice(problem.x0.as_slice());
+    for i in 0..n {
+        z0[n + i + i * n] = 1.0;
+    }
+    let mut ap = Problem::<Dyn, Augmented<'_, D, S>>::new(aug, z0, (problem.t0, problem.t_end));
+    ap.controls = problem.controls.clone();
+    ap.held = problem.held.clone();
+    let mut o = opts.clone();
+    let widen = |tol: &Tolerance| -> Tolerance {
+        match tol {
+            Tolerance::Scalar(v) => Tolerance::Scalar(*v),
+            // each column of S gets the tolerances of x (checked for length by the solve)
+            Tolerance::PerComponent(v) if v.len() == n => {
+                Tolerance::PerComponent((0..=m).flat_map(|_| v.iter().copied()).collect())
+            }
+            Tolerance::PerComponent(v) => Tolerance::PerComponent(v.clone()),
+        }
+    };
+    o.rtol = widen(&opts.rtol);
+    o.atol = widen(&opts.atol);
+    if !sens.error_control {
+        o.error_components = Some(opts.error_components.unwrap_or(n).min(n));
+    }
+    let sol: Solution<Dyn> = ap.solve(method, &o)?;
+    let r = D::from_usize(n);
+    Ok(Sensitivities {
+        x: sol
+            .x
+            .iter()
+            .map(|z| OVector::<f64, D>::from_column_slice_generic(r, U1, &z.as_slice()[..n]))
+            .collect(),
+        s: sol
+            .x
+            .iter()
+            .map(|z| DMatrix::from_column_slice(n, m, &z.as_slice()[n..]))
+            .collect(),
+        t: sol.t,
+        n_params: np,
+        stats: sol.stats,
+        method: sol.method,
+    })
+}

@@ -142,6 +142,25 @@ pub enum Error {
         /// Time of the matrix it worked on.
         t: f64,
     },
+    /// A least-squares fit whose data cannot determine a parameter: the residual Jacobian
+    /// (columns scaled to unit norm) is singular or nearly so.
+    #[error(
+        "the data cannot determine {parameter}: the scaled residual Jacobian has condition number {condition:e} (drive a path that excites it, or fix it)"
+    )]
+    Unidentifiable {
+        /// The parameter that leans most on the weakest direction.
+        parameter: String,
+        /// Condition number of the scaled Jacobian (∞: a column is zero).
+        condition: f64,
+    },
+    /// A least-squares fit did not converge.
+    #[error("the {what} fit did not converge: {reason}")]
+    FitFailed {
+        /// Which fit.
+        what: &'static str,
+        /// What the optimiser reported.
+        reason: String,
+    },
     /// An event function returned NaN, so whether it changed sign is unknown (a pole,
     /// where it jumps through ±∞, is a sign change; NaN is not).
     #[error("event function {index} is NaN at t = {}", Brief(*.t))]

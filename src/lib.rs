@@ -5,6 +5,7 @@
 #[doc = include_str!("../docs/guide.md")]
 pub mod guide {}
 
+pub mod calibration;
 #[doc(hidden)]
 pub mod cli;
 pub mod control;

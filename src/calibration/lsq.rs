@@ -1,0 +1,492 @@
+//! General nonlinear least squares: any model parameters from a logged trajectory against
+//! measured poses, by argmin's Gauss–Newton with a line search, with the exact residual
+//! Jacobian from the forward sensitivities ([`crate::sensitivity`]).
+//!
+//! Minimises `½ Σ_k Σ_{c ∈ C} ((x_c(t_k; p) − y_{k,c}) / σ_c)²` over `p`, with `x(t; p)` the
+//! model integrated from `x₀` under the logged inputs, `y_k` the measured poses at `t_k`,
+//! `C` the observed components (angles wrapped to `(−π, π]`). The Jacobian of the
+//! residuals is `∂x_c(t_k)/∂p / σ_c`, read off the sensitivity solve at the observation
+//! times. The covariance is `σ̂²·(JᵀJ)⁻¹` at the optimum with `σ̂² = ‖r‖² / (N − n_p)`
+//! (the residuals' own scale: with correct `σ_c`, `σ̂² ≈ 1`).
+//!
+//! Before it starts and at the optimum the column-scaled `J` is checked by its singular
+//! values: a parameter the data cannot determine (a condition number above
+//! [`LsqOptions::max_condition`]) is [`Error::Unidentifiable`], not a number.
+
+use crate::controls::Controls;
+use crate::error::{Error, Result};
+use crate::options::{Options, Save};
+use crate::problem::Problem;
+use crate::sensitivity::{self, Augment, SensitivityOptions};
+use crate::system::DualSystem;
+use argmin::core::{CostFunction, Executor, Gradient, Jacobian, Operator, State};
+use argmin::solver::gaussnewton::GaussNewtonLS;
+use argmin::solver::linesearch::{BacktrackingLineSearch, condition::ArmijoCondition};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, OVector, U1};
+use std::f64::consts::PI;
+
+/// Measured poses and what is compared.
+#[derive(Debug, Clone)]
+pub struct Observations {
+    /// Observation times (increasing, after `t₀`).
+    pub t: Vec<f64>,
+    /// Measured state components at each time (`y[k][c]` for `c` in [`components`](Self::components)).
+    pub y: Vec<Vec<f64>>,
+    /// Which state components are observed.
+    pub components: Vec<usize>,
+    /// Standard deviation of each observed component's measurement.
+    pub sigma: Vec<f64>,
+    /// Observed components that are angles (residuals wrapped to `(−π, π]`).
+    pub angles: Vec<usize>,
+}
+
+/// Options of [`fit`].
+#[derive(Debug, Clone)]
+pub struct LsqOptions {
+    /// Gauss–Newton iterations at most (default 50).
+    pub max_iters: u64,
+    /// Stop when the cost changes by less than this relative amount (default 1e-12).
+    pub tol: f64,
+    /// Largest condition number of the column-scaled residual Jacobian accepted (default 1e8).
+    pub max_condition: f64,
+    /// The sensitivity solve's options.
+    pub sensitivity: SensitivityOptions,
+}
+
+impl Default for LsqOptions {
+    fn default() -> Self {
+        LsqOptions {
+            max_iters: 50,
+            tol: 1e-12,
+            max_condition: 1e8,
+            sensitivity: SensitivityOptions::default(),
+        }
+    }
+}
+
+/// A least-squares estimate.
+#[derive(Debug, Clone)]
+pub struct Fit {
+    /// Parameter names (as given).
+    pub names: Vec<String>,
+    /// The estimate `p̂`.
+    pub params: Vec<f64>,
+    /// `σ̂²·(JᵀJ)⁻¹` at `p̂`.
+    pub covariance: DMatrix<f64>,
+    /// Weighted residuals at `p̂` (observation-major: `r[k·|C| + c]`).
+    pub residuals: Vec<f64>,
+    /// `σ̂² = ‖r‖² / (N − n_p)`.
+    pub sigma2: f64,
+    /// Gauss–Newton iterations.
+    pub iterations: u64,
+    /// Condition number of the column-scaled `J` at `p̂`.
+    pub condition: f64,
+}
+
+impl Fit {
+    /// Standard deviations `√diag(covariance)`.
+    pub fn std_dev(&self) -> Vec<f64> {
+        (0..self.params.len()).map(|i| self.covariance[(i, i)].sqrt()).collect()
+    }
+}
+
+/// The residual Jacobian as argmin's Jacobian type (a nalgebra matrix behind a newtype:
+/// argmin sees `Vec<f64>` parameters and residuals, never a second nalgebra).
+#[derive(Debug, Clone)]
+pub struct Jac(pub DMatrix<f64>);
+
+impl argmin_math::ArgminTranspose<Jac> for Jac {
+    fn t(self) -> Jac {
+        Jac(self.0.transpose())
+    }
+}
+impl argmin_math::ArgminDot<Jac, Jac> for Jac {
+    fn dot(&self, other: &Jac) -> Jac {
+        Jac(&self.0 * &other.0)
+    }
+}
+impl argmin_math::ArgminDot<Vec<f64>, Vec<f64>> for Jac {
+    fn dot(&self, v: &Vec<f64>) -> Vec<f64> {
+        (&self.0 * DVector::from_column_slice(v)).as_slice().to_vec()
+    }
+}
+impl argmin_math::ArgminInv<Jac> for Jac {
+    fn inv(&self) -> std::result::Result<Jac, argmin_math::Error> {
+        // JᵀJ is symmetric positive definite when the data determine p (checked before)
+        self.0
+            .clone()
+            .cholesky()
+            .map(|c| Jac(c.inverse()))
+            .ok_or_else(|| argmin_math::Error::msg("JᵀJ is not positive definite"))
+    }
+}
+
+/// What the Gauss–Newton iteration sees.
+struct Residuals<'a, D: Dim, S, B, M>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    build: &'a B,
+    x0: &'a OVector<f64, D>,
+    span: (f64, f64),
+    controls: &'a Controls,
+    obs: &'a Observations,
+    method: &'a M,
+    opts: Options,
+    sens: SensitivityOptions,
+    _s: std::marker::PhantomData<S>,
+}
+
+impl<D: Dim, S, B, M> Residuals<'_, D, S, B, M>
+where
+    S: DualSystem<D>,
+    B: Fn(&[f64]) -> Result<S>,
+    M: Augment<D> + Clone,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    /// Weighted residuals and their Jacobian at `p`.
+    fn eval(&self, p: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>)> {
+        let model = (self.build)(p)?;
+        let np = model.n_params();
+        if np != p.len() {
+            return Err(Error::invalid(
+                "params",
+                format!("the model has {np} parameters, {} were given", p.len()),
+            ));
+        }
+        let problem = Problem::new(&model, self.x0.clone(), self.span).controls(self.controls.clone());
+        let sol = sensitivity::solve(&problem, self.method.clone(), &self.opts, &self.sens)?;
+        let nc = self.obs.components.len();
+        let n = self.x0.len();
+        let mut r = Vec::with_capacity(self.obs.t.len() * nc);
+        let mut j = DMatrix::zeros(self.obs.t.len() * nc, np);
+        // Save::At keeps exactly the observation times, in order
+        for (k, (&t, y)) in self.obs.t.iter().zip(&self.obs.y).enumerate() {
+            let i = sol
+                .t
+                .iter()
+                .position(|&s| s == t)
+                .ok_or_else(|| Error::invalid("observations", format!("no state saved at t = {t}")))?;
+            for (c, &comp) in self.obs.components.iter().enumerate() {
+                let mut d = sol.x[i][comp] - y[c];
+                if self.obs.angles.contains(&comp) {
+                    d = wrap(d);
+                }
+                let w = 1.0 / self.obs.sigma[c];
+                r.push(d * w);
+                for q in 0..np {
+                    j[(k * nc + c, q)] = sol.s[i][(comp, n + q)] * w;
+                }
+            }
+        }
+        Ok((r, j))
+    }
+}
+
+/// `a` wrapped to `(−π, π]`.
+fn wrap(a: f64) -> f64 {
+    let w = a - 2.0 * PI * ((a + PI) / (2.0 * PI)).floor();
+    if w <= -PI { w + 2.0 * PI } else { w }
+}
+
+/// The argmin problem: interior errors of the solve are kept (argmin's errors are strings).
+struct Argmin<'a, 'b, D: Dim, S, B, M>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    res: &'b Residuals<'a, D, S, B, M>,
+    failure: &'b std::cell::RefCell<Option<Error>>,
+}
+
+impl<D: Dim, S, B, M> Argmin<'_, '_, D, S, B, M>
+where
+    S: DualSystem<D>,
+    B: Fn(&[f64]) -> Result<S>,
+    M: Augment<D> + Clone,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    fn eval(&self, p: &[f64]) -> std::result::Result<(Vec<f64>, DMatrix<f64>), argmin_math::Error> {
+        self.res.eval(p).map_err(|e| {
+            let msg = e.to_string();
+            self.failure.borrow_mut().get_or_insert(e);
+            argmin_math::Error::msg(msg)
+        })
+    }
+}
+
+impl<D: Dim, S, B, M> Operator for Argmin<'_, '_, D, S, B, M>
+where
+    S: DualSystem<D>,
+    B: Fn(&[f64]) -> Result<S>,
+    M: Augment<D> + Clone,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    type Param = Vec<f64>;
+    type Output = Vec<f64>;
+    fn apply(&self, p: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin_math::Error> {
+        Ok(self.eval(p)?.0)
+    }
+}
+
+impl<D: Dim, S, B, M> Jacobian for Argmin<'_, '_, D, S, B, M>
+where
+    S: DualSystem<D>,
+    B: Fn(&[f64]) -> Result<S>,
+    M: Augment<D> + Clone,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    type Param = Vec<f64>;
+    type Jacobian = Jac;
+    fn jacobian(&self, p: &Vec<f64>) -> std::result::Result<Jac, argmin_math::Error> {
+        Ok(Jac(self.eval(p)?.1))
+    }
+}
+
+// (argmin's line search asks for a cost and a gradient of the problem it wraps; Gauss–Newton
+// provides them from the residuals, these are for completeness of the trait bounds)
+impl<D: Dim, S, B, M> CostFunction for Argmin<'_, '_, D, S, B, M>
+where
+    S: DualSystem<D>,
+    B: Fn(&[f64]) -> Result<S>,
+    M: Augment<D> + Clone,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Vec<f64>) -> std::result::Result<f64, argmin_math::Error> {
+        Ok(0.5 * self.eval(p)?.0.iter().map(|r| r * r).sum::<f64>())
+    }
+}
+
+impl<D: Dim, S, B, M> Gradient for Argmin<'_, '_, D, S, B, M>
+where
+    S: DualSystem<D>,
+    B: Fn(&[f64]) -> Result<S>,
+    M: Augment<D> + Clone,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    type Param = Vec<f64>;
+    type Gradient = Vec<f64>;
+    fn gradient(&self, p: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin_math::Error> {
+        let (r, j) = self.eval(p)?;
+        Ok((j.transpose() * DVector::from_vec(r)).as_slice().to_vec())
+    }
+}
+
+/// Condition number of `J` with its columns scaled to unit norm, and the parameter that
+/// leans most on the smallest singular direction.
+fn identifiability(j: &DMatrix<f64>) -> (f64, usize) {
+    let mut js = j.clone();
+    for mut c in js.column_iter_mut() {
+        let n = c.norm();
+        if n > 0.0 {
+            c /= n;
+        }
+    }
+    if j.column_iter().any(|c| c.norm() == 0.0) {
+        let q = j.column_iter().position(|c| c.norm() == 0.0).unwrap_or(0);
+        return (f64::INFINITY, q);
+    }
+    let svd = js.svd(false, true);
+    let (imin, smin) = svd
+        .singular_values
+        .iter()
+        .enumerate()
+        .fold((0, f64::INFINITY), |a, (i, &s)| if s < a.1 { (i, s) } else { a });
+    let smax = svd.singular_values.max();
+    let v = svd.v_t.expect("v_t was asked for");
+    let row = v.row(imin);
+    let q = (0..row.len())
+        .max_by(|&a, &b| row[a].abs().total_cmp(&row[b].abs()))
+        .unwrap_or(0);
+    (smax / smin, q)
+}
+
+/// Fit the parameters of `build(p)` (a model with a parameter block, rebuilt for each `p`)
+/// from `p0` so that the model driven by `controls` from `x0` at `t0` matches `obs`.
+/// `method` integrates with sensitivities ([`sensitivity::solve`]).
+///
+/// Errors: [`Error::Unidentifiable`] when the data cannot determine a parameter (named),
+/// [`Error::InvalidInput`] for malformed observations, the solve's errors as they are, and
+/// [`Error::FitFailed`] when Gauss–Newton fails.
+///
+/// ```
+/// use reckon::calibration::lsq::{self, LsqOptions, Observations};
+/// use reckon::{model, Controls, Options, Problem, methods::Dopri5};
+/// use nalgebra::vector;
+/// // x' = −k·x from noise-free samples of x(t) = e^{−0.7 t}
+/// let build = |p: &[f64]| model!(|_, x: [S; 1], u: [1], p: [S; 1] = [1.0]| vector![-(p[0] * x[0])]).with_params(p);
+/// let t: Vec<f64> = (1..=10).map(|k| 0.3 * k as f64).collect();
+/// let obs = Observations {
+///     y: t.iter().map(|t| vec![(-0.7 * t).exp()]).collect(),
+///     t, components: vec![0], sigma: vec![1e-3], angles: vec![],
+/// };
+/// let u = Controls::new(vec![0.0], vec![vec![0.0]]).unwrap();
+/// let fit = lsq::fit(&build, &[0.2], &vector![1.0], 0.0, &u, &obs, Dopri5::default(),
+///     &Options::default().rtol(1e-10).atol(1e-12), &LsqOptions::default()).unwrap();
+/// assert!((fit.params[0] - 0.7).abs() < 1e-8);
+/// ```
+#[allow(clippy::too_many_arguments)]
+pub fn fit<D, S, B, M>(
+    build: &B,
+    p0: &[f64],
+    x0: &OVector<f64, D>,
+    t0: f64,
+    controls: &Controls,
+    obs: &Observations,
+    method: M,
+    opts: &Options,
+    lsq: &LsqOptions,
+) -> Result<Fit>
+where
+    D: Dim,
+    S: DualSystem<D>,
+    B: Fn(&[f64]) -> Result<S>,
+    M: Augment<D> + Clone,
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    let nc = obs.components.len();
+    if obs.t.is_empty() || obs.t.len() != obs.y.len() {
+        return Err(Error::invalid(
+            "observations",
+            format!(
+                "{} times for {} measurements (at least one needed)",
+                obs.t.len(),
+                obs.y.len()
+            ),
+        ));
+    }
+    if nc == 0 || obs.sigma.len() != nc || obs.sigma.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err(Error::invalid(
+            "observations",
+            "one positive finite σ per observed component is needed",
+        ));
+    }
+    if let Some(&c) = obs.components.iter().find(|&&c| c >= x0.len()) {
+        return Err(Error::invalid(
+            "observations",
+            format!("component {c} of a {}-state model", x0.len()),
+        ));
+    }
+    if let Some(k) = obs
+        .y
+        .iter()
+        .position(|y| y.len() != nc || y.iter().any(|v| !v.is_finite()))
+    {
+        return Err(Error::invalid(
+            "observations",
+            format!("measurement {k} needs {nc} finite values"),
+        ));
+    }
+    if obs.t.windows(2).any(|w| !(w[1] > w[0])) || !(obs.t[0] > t0) || obs.t.iter().any(|t| !t.is_finite()) {
+        return Err(Error::invalid(
+            "observations",
+            "times must be finite, increasing and after t0",
+        ));
+    }
+    let n_res = obs.t.len() * nc;
+    if n_res <= p0.len() {
+        return Err(Error::invalid(
+            "observations",
+            format!("{n_res} residuals for {} parameters: more are needed", p0.len()),
+        ));
+    }
+    let t_end = *obs.t.last().expect("not empty");
+    let opts = opts.clone().save(Save::At(obs.t.clone()));
+    let res = Residuals {
+        build,
+        x0,
+        span: (t0, t_end),
+        controls,
+        obs,
+        method: &method,
+        opts,
+        sens: lsq.sensitivity,
+        _s: std::marker::PhantomData,
+    };
+    let names: Vec<String> = (0..p0.len()).map(|i| format!("p[{i}]")).collect();
+    // identifiable at the start?
+    let (_, j0) = res.eval(p0)?;
+    let (cond, q) = identifiability(&j0);
+    if !(cond <= lsq.max_condition) {
+        return Err(Error::Unidentifiable {
+            parameter: names[q].clone(),
+            condition: cond,
+        });
+    }
+    let failure = std::cell::RefCell::new(None);
+    let problem = Argmin {
+        res: &res,
+        failure: &failure,
+    };
+    let armijo = ArmijoCondition::new(1e-4).map_err(|e| Error::invalid("lsq", e.to_string()))?;
+    let ls = BacktrackingLineSearch::new(armijo);
+    let gn = GaussNewtonLS::new(ls)
+        .with_tolerance(lsq.tol.max(f64::MIN_POSITIVE))
+        .map_err(|e| Error::invalid("lsq", e.to_string()))?;
+    let out = Executor::new(problem, gn)
+        .configure(|c| c.param(p0.to_vec()).max_iters(lsq.max_iters))
+        .run();
+    let out = match out {
+        Ok(o) => o,
+        Err(e) => {
+            return Err(failure.into_inner().unwrap_or(Error::FitFailed {
+                what: "Gauss-Newton (lsq)",
+                reason: e.to_string(),
+            }));
+        }
+    };
+    let iterations = out.state.get_iter();
+    let p = out
+        .state
+        .get_best_param()
+        .or(out.state.get_param())
+        .cloned()
+        .unwrap_or_else(|| p0.to_vec());
+    let (r, j) = res.eval(&p)?;
+    let (cond, q) = identifiability(&j);
+    if !(cond <= lsq.max_condition) {
+        return Err(Error::Unidentifiable {
+            parameter: names[q].clone(),
+            condition: cond,
+        });
+    }
+    let dof = (n_res - p.len()) as f64;
+    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / dof;
+    let jtj = j.transpose() * &j;
+    let inv = jtj.cholesky().map(|c| c.inverse()).ok_or(Error::Unidentifiable {
+        parameter: names[q].clone(),
+        condition: cond,
+    })?;
+    Ok(Fit {
+        names,
+        params: p,
+        covariance: inv * sigma2,
+        residuals: r,
+        sigma2,
+        iterations,
+        condition: cond,
+    })
+}
+
+/// The differential drive with wheel angular speeds as inputs and its geometry as
+/// parameters: `u = (ω_l, ω_r)` (rad/s), `p = (r_l, r_r, b)` (wheel radii, wheelbase):
+/// `v = (r_r ω_r + r_l ω_l)/2`, `ω = (r_r ω_r − r_l ω_l)/b`, `x' = v cos θ`, `y' = v sin θ`, `θ' = ω`.
+///
+/// ```
+/// use reckon::{calibration::lsq::diff_drive, System};
+/// use nalgebra::vector;
+/// let f = diff_drive(&[0.05, 0.05, 0.5]).unwrap();
+/// let mut dx = vector![0.0, 0.0, 0.0];
+/// f.rhs(0.0, &vector![0.0, 0.0, 0.0], &[10.0, 12.0], &mut dx);
+/// assert!((dx - vector![0.55, 0.0, 0.2]).norm() < 1e-15);
+/// ```
+pub fn diff_drive(p: &[f64]) -> Result<impl DualSystem<nalgebra::Const<3>> + Clone + use<>> {
+    crate::model!(|_, x: [S; 3], u: [2], p: [S; 3] = [0.05, 0.05, 0.5]| {
+        let v = (p[1] * u[1] + p[0] * u[0]) * 0.5;
+        let w = (p[1] * u[1] - p[0] * u[0]) / p[2];
+        nalgebra::vector![x[2].cos() * v, x[2].sin() * v, w]
+    })
+    .with_params(p)
+}

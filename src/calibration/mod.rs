@@ -1,0 +1,2 @@
+//! Odometry calibration: parameters from test drives, with their covariance.
+pub mod lsq;

@@ -1,0 +1,182 @@
+//! Least-squares calibration of a differential drive's wheel radii and wheelbase.
+
+use nalgebra::{DMatrix, DVector, Vector3, vector};
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use rand_distr::{Distribution, Normal};
+use reckon::calibration::lsq::{self, LsqOptions, Observations, diff_drive};
+use reckon::methods::Dopri5;
+use reckon::{Controls, Error, Options, Problem, Save};
+
+const TRUTH: [f64; 3] = [0.0502, 0.0497, 0.405];
+const NOMINAL: [f64; 3] = [0.05, 0.05, 0.4];
+
+/// Wheel speeds (rad/s) changing every 2 s over 60 s: straight runs and turns both ways.
+fn drive() -> Controls {
+    let pattern = [
+        (10.0, 10.0),
+        (6.0, 12.0),
+        (12.0, 12.0),
+        (12.0, 5.0),
+        (-4.0, 4.0),
+        (8.0, 9.0),
+    ];
+    let t: Vec<f64> = (0..30).map(|k| 2.0 * k as f64).collect();
+    let u = (0..30).map(|k| vec![pattern[k % 6].0, pattern[k % 6].1]).collect();
+    Controls::new(t, u).unwrap()
+}
+
+fn times() -> Vec<f64> {
+    (1..=120).map(|k| 0.5 * k as f64).collect()
+}
+
+fn truth_poses(controls: &Controls, p: &[f64], t: &[f64]) -> Vec<Vector3<f64>> {
+    let f = diff_drive(p).unwrap();
+    let sol = Problem::new(&f, vector![0.0, 0.0, 0.0], (0.0, *t.last().unwrap()))
+        .controls(controls.clone())
+        .solve(
+            Dopri5::default(),
+            &Options::default().rtol(1e-12).atol(1e-14).save(Save::At(t.to_vec())),
+        )
+        .unwrap();
+    sol.x
+}
+
+fn observe(poses: &[Vector3<f64>], t: Vec<f64>, sigma: [f64; 3], seed: Option<u64>) -> Observations {
+    let mut rng = StdRng::seed_from_u64(seed.unwrap_or(0));
+    let n = Normal::new(0.0, 1.0).unwrap();
+    let y = poses
+        .iter()
+        .map(|x| {
+            (0..3)
+                .map(|c| {
+                    x[c] + if seed.is_some() {
+                        sigma[c] * n.sample(&mut rng)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    Observations {
+        t,
+        y,
+        components: vec![0, 1, 2],
+        sigma: sigma.to_vec(),
+        angles: vec![2],
+    }
+}
+
+fn fit(obs: &Observations, controls: &Controls) -> reckon::Result<lsq::Fit> {
+    lsq::fit(
+        &|p: &[f64]| diff_drive(p),
+        &NOMINAL,
+        &vector![0.0, 0.0, 0.0],
+        0.0,
+        controls,
+        obs,
+        Dopri5::default(),
+        &Options::default().rtol(1e-10).atol(1e-12),
+        &LsqOptions::default(),
+    )
+}
+
+#[test]
+fn noise_free_log_gives_the_parameters_back() {
+    let u = drive();
+    let t = times();
+    let obs = observe(&truth_poses(&u, &TRUTH, &t), t, [0.005, 0.005, 0.002], None);
+    let f = fit(&obs, &u).unwrap();
+    for i in 0..3 {
+        assert!(
+            (f.params[i] - TRUTH[i]).abs() < 1e-8 * TRUTH[i],
+            "{i}: {} vs {}",
+            f.params[i],
+            TRUTH[i]
+        );
+    }
+    assert!(f.iterations >= 2 && f.iterations < 30, "{} iterations", f.iterations);
+}
+
+/// Over 8 noisy logs: the reported covariance describes the scatter of the estimates
+/// (each normalised error `eᵀ P⁻¹ e` is χ²₃: below 16.27 with probability 0.999, and the
+/// mean of eight is within [0.5, 6] with probability above 0.999) and σ̂² ≈ 1.
+#[test]
+fn noisy_logs_recover_the_parameters_within_their_covariance() {
+    let u = drive();
+    let t = times();
+    let poses = truth_poses(&u, &TRUTH, &t);
+    let mut nees = Vec::new();
+    for seed in 1..=8 {
+        let obs = observe(&poses, t.clone(), [0.005, 0.005, 0.002], Some(seed));
+        let f = fit(&obs, &u).unwrap();
+        let e = DVector::from_iterator(3, (0..3).map(|i| f.params[i] - TRUTH[i]));
+        let pinv: DMatrix<f64> = f.covariance.clone().try_inverse().unwrap();
+        let q = (e.transpose() * pinv * &e)[(0, 0)];
+        assert!(q < 16.27, "seed {seed}: normalised error {q}");
+        // 357 degrees of freedom: σ̂² has standard deviation √(2/357) = 0.075
+        assert!((f.sigma2 - 1.0).abs() < 0.3, "seed {seed}: σ̂² = {}", f.sigma2);
+        // and the wheelbase is determined to better than a millimetre here
+        assert!(f.std_dev()[2] < 1e-3, "σ_b = {}", f.std_dev()[2]);
+        nees.push(q);
+    }
+    let mean = nees.iter().sum::<f64>() / nees.len() as f64;
+    assert!((0.5..6.0).contains(&mean), "mean normalised error {mean}: {nees:?}");
+}
+
+/// Driving straight with equal wheel speeds leaves the wheelbase (and the radius split)
+/// undetermined: a typed error, not a number.
+#[test]
+fn straight_driving_cannot_determine_the_wheelbase() {
+    let u = Controls::new(vec![0.0], vec![vec![10.0, 10.0]]).unwrap();
+    let t = times();
+    let obs = observe(&truth_poses(&u, &TRUTH, &t), t, [0.005, 0.005, 0.002], Some(3));
+    match fit(&obs, &u) {
+        Err(Error::Unidentifiable { condition, .. }) => assert!(condition > 1e8),
+        other => panic!("expected Unidentifiable, got {other:?}"),
+    }
+}
+
+#[test]
+fn malformed_observations_are_typed_errors() {
+    let u = drive();
+    let t = times();
+    let good = observe(&truth_poses(&u, &TRUTH, &t), t, [0.005, 0.005, 0.002], None);
+    let mut bad = good.clone();
+    bad.sigma[1] = 0.0;
+    assert!(matches!(
+        fit(&bad, &u),
+        Err(Error::InvalidInput {
+            what: "observations",
+            ..
+        })
+    ));
+    let mut bad = good.clone();
+    bad.t.swap(3, 4);
+    assert!(matches!(
+        fit(&bad, &u),
+        Err(Error::InvalidInput {
+            what: "observations",
+            ..
+        })
+    ));
+    let mut bad = good.clone();
+    bad.y[7][2] = f64::NAN;
+    assert!(matches!(
+        fit(&bad, &u),
+        Err(Error::InvalidInput {
+            what: "observations",
+            ..
+        })
+    ));
+    let mut bad = good;
+    bad.components = vec![0, 1, 5];
+    assert!(matches!(
+        fit(&bad, &u),
+        Err(Error::InvalidInput {
+            what: "observations",
+            ..
+        })
+    ));
+}

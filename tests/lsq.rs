@@ -88,13 +88,8 @@ fn noise_free_log_gives_the_parameters_back() {
     let t = times();
     let obs = observe(&truth_poses(&u, &TRUTH, &t), t, [0.005, 0.005, 0.002], None);
     let f = fit(&obs, &u).unwrap();
-    for i in 0..3 {
-        assert!(
-            (f.params[i] - TRUTH[i]).abs() < 1e-8 * TRUTH[i],
-            "{i}: {} vs {}",
-            f.params[i],
-            TRUTH[i]
-        );
+    for (got, want) in f.params.iter().zip(TRUTH) {
+        assert!((got - want).abs() < 1e-8 * want, "{got} vs {want}");
     }
     assert!(f.iterations >= 2 && f.iterations < 30, "{} iterations", f.iterations);
 }

@@ -379,7 +379,8 @@ where
             format!("measurement {k} needs {nc} finite values"),
         ));
     }
-    if obs.t.windows(2).any(|w| !(w[1] > w[0])) || !(obs.t[0] > t0) || obs.t.iter().any(|t| !t.is_finite()) {
+    let increasing = obs.t.windows(2).all(|w| w[1] > w[0]) && obs.t[0] > t0;
+    if !increasing || obs.t.iter().any(|t| !t.is_finite()) {
         return Err(Error::invalid(
             "observations",
             "times must be finite, increasing and after t0",
@@ -409,7 +410,7 @@ where
     // identifiable at the start?
     let (_, j0) = res.eval(p0)?;
     let (cond, q) = identifiability(&j0);
-    if !(cond <= lsq.max_condition) {
+    if cond.is_nan() || cond > lsq.max_condition {
         return Err(Error::Unidentifiable {
             parameter: names[q].clone(),
             condition: cond,
@@ -446,7 +447,7 @@ where
         .unwrap_or_else(|| p0.to_vec());
     let (r, j) = res.eval(&p)?;
     let (cond, q) = identifiability(&j);
-    if !(cond <= lsq.max_condition) {
+    if cond.is_nan() || cond > lsq.max_condition {
         return Err(Error::Unidentifiable {
             parameter: names[q].clone(),
             condition: cond,

@@ -123,6 +123,9 @@ where
     fn inputs(&self) -> usize {
         self.sys.inputs()
     }
+    fn jacobian_blocks(&self) -> Option<usize> {
+        Some(self.n)
+    }
     fn rhs(&self, t: f64, z: &DVector<f64>, u: &[f64], dz: &mut DVector<f64>) {
         let n = self.n;
         if z.len() != n * (1 + self.m) || dz.len() != z.len() {

@@ -54,6 +54,13 @@ where
     fn sparse_jacobian(&self, _n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
         None
     }
+    /// `Some(b)` when `J` has the block form `[[A, 0], [L, blockdiag(A, …, A)]]` with `A`
+    /// of size `b × b` (the stacked state of [`crate::sensitivity`]): the implicit methods
+    /// then factor `a·I + b·A` once and solve block by block. `None` (the default): no such
+    /// structure.
+    fn jacobian_blocks(&self) -> Option<usize> {
+        None
+    }
     /// The model traced into expressions ([`crate::symbolic::trace`]) for a state of `n`
     /// components: `None` for a model with no traced copy of its body (the default, and
     /// any hand-written `System`), `Some(Err(`[`Error::Untraceable`]`))` for a body whose
@@ -88,6 +95,9 @@ where
     }
     fn symbolic(&self, n: usize) -> Option<Result<crate::symbolic::Traced>> {
         (**self).symbolic(n)
+    }
+    fn jacobian_blocks(&self) -> Option<usize> {
+        (**self).jacobian_blocks()
     }
 }
 

@@ -21,6 +21,16 @@ where
         lu: Option<D::Lu>,
     },
     Sparse(Box<SparseMatrix>),
+    /// `J = [[A, 0], [L, blockdiag(A, …, A)]]` ([`System::jacobian_blocks`]): `M`'s
+    /// diagonal blocks are all `a·I + b·A`, factored once (`b_n × b_n`), and
+    /// `M·v = r` is solved by forward substitution over the blocks.
+    Block {
+        j: OMatrix<f64, D, D>,
+        nb: usize,
+        b: f64,
+        lu: Option<BlockLu>,
+        tmp: Vec<f64>,
+    },
 }
 
 /// `J`'s values in its pattern, `M`'s in `J ∪ diag`, the map between them and the LU.
@@ -73,6 +83,20 @@ where
             return Ok(IterationMatrix::Sparse(Box::new(s)));
         }
         let (r, _) = x0.shape_generic();
+        if let Some(nb) = f.system().jacobian_blocks()
+            && nb > 0
+            && x0.len() % nb == 0
+            && x0.len() > nb
+            && f.sparse.choice != crate::options::LinearSolver::Sparse
+        {
+            return Ok(IterationMatrix::Block {
+                j: OMatrix::<f64, D, D>::zeros_generic(r, r),
+                nb,
+                b: 0.0,
+                lu: None,
+                tmp: vec![0.0; nb],
+            });
+        }
         Ok(IterationMatrix::Dense {
             j: OMatrix::<f64, D, D>::zeros_generic(r, r),
             m: OMatrix::<f64, D, D>::zeros_generic(r, r),
@@ -84,6 +108,10 @@ where
     pub fn evaluate<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t: f64, x: &OVector<f64, D>) -> Result<()> {
         match self {
             IterationMatrix::Dense { j, lu, .. } => {
+                *lu = None;
+                f.jacobian(t, x, j)
+            }
+            IterationMatrix::Block { j, lu, .. } => {
                 *lu = None;
                 f.jacobian(t, x, j)
             }
@@ -112,6 +140,16 @@ where
                 *lu = D::Lu::factor(m);
                 lu.is_some()
             }
+            IterationMatrix::Block { j, nb, b: bs, lu, .. } => {
+                let nb = *nb;
+                let mut m = nalgebra::DMatrix::from_fn(nb, nb, |r, c| b * j[(r, c)]);
+                for i in 0..nb {
+                    m[(i, i)] += a;
+                }
+                *bs = b;
+                *lu = block_lu(m);
+                lu.is_some()
+            }
             IterationMatrix::Sparse(s) => {
                 s.m.fill(0.0);
                 for (k, &v) in s.j.iter().enumerate() {
@@ -129,6 +167,7 @@ where
     pub fn is_factored(&self) -> bool {
         match self {
             IterationMatrix::Dense { lu, .. } => lu.is_some(),
+            IterationMatrix::Block { lu, .. } => lu.is_some(),
             IterationMatrix::Sparse(s) => s.lu.is_factored(),
         }
     }
@@ -137,6 +176,7 @@ where
     pub fn drop_lu(&mut self) {
         match self {
             IterationMatrix::Dense { lu, .. } => *lu = None,
+            IterationMatrix::Block { lu, .. } => *lu = None,
             IterationMatrix::Sparse(s) => s.lu_drop(),
         }
     }
@@ -149,6 +189,34 @@ where
                 true
             }
             IterationMatrix::Dense { lu: None, .. } => false,
+            IterationMatrix::Block {
+                j,
+                nb,
+                b,
+                lu: Some(lu),
+                tmp,
+            } => {
+                let (nb, b) = (*nb, *b);
+                let v = v.as_mut_slice();
+                let blocks = v.len() / nb;
+                let solve = |s: &mut [f64], lu: &BlockLu| block_solve(lu, s);
+                solve(&mut v[..nb], lu);
+                tmp.copy_from_slice(&v[..nb]);
+                for k in 1..blocks {
+                    // r_k − b·L_k·v₀, then the diagonal block
+                    for r in 0..nb {
+                        let row = k * nb + r;
+                        let mut acc = 0.0;
+                        for (c, &x) in tmp.iter().enumerate() {
+                            acc += j[(row, c)] * x;
+                        }
+                        v[row] -= b * acc;
+                    }
+                    solve(&mut v[k * nb..(k + 1) * nb], lu);
+                }
+                true
+            }
+            IterationMatrix::Block { lu: None, .. } => false,
             IterationMatrix::Sparse(s) if s.lu.is_factored() => {
                 s.lu.solve_in_place(v.as_mut_slice());
                 true
@@ -160,13 +228,32 @@ where
     /// `‖J‖∞ = max_i Σ_j |J_ij|` (a bound on every eigenvalue's modulus).
     pub fn norm_inf(&self) -> f64 {
         match self {
-            IterationMatrix::Dense { j, .. } => j
+            IterationMatrix::Dense { j, .. } | IterationMatrix::Block { j, .. } => j
                 .row_iter()
                 .map(|r| r.iter().map(|v| v.abs()).sum::<f64>())
                 .fold(0.0, f64::max),
             IterationMatrix::Sparse(s) => s.norm,
         }
     }
+}
+
+/// The LU of a diagonal block (nalgebra's, partial pivoting).
+pub(crate) type BlockLu = nalgebra::linalg::LU<f64, nalgebra::Dyn, nalgebra::Dyn>;
+
+/// Factor a diagonal block; `None` when singular or with non-finite pivots. (Outside the
+/// generic impl, whose allocator bounds would otherwise pin nalgebra's `DimMin` output.)
+fn block_lu(m: nalgebra::DMatrix<f64>) -> Option<BlockLu> {
+    let n = m.nrows();
+    let f = nalgebra::linalg::LU::new(m);
+    let u = f.u();
+    (0..n).all(|i| u[(i, i)] != 0.0 && u[(i, i)].is_finite()).then_some(f)
+}
+
+/// `s ← A⁻¹·s` for one block.
+fn block_solve(lu: &BlockLu, s: &mut [f64]) {
+    let n = s.len();
+    let mut w = nalgebra::DVectorViewMut::from_slice(s, n);
+    lu.solve_mut(&mut w);
 }
 
 impl SparseMatrix {

@@ -85,7 +85,7 @@ where
         let (r, _) = x0.shape_generic();
         if let Some(nb) = f.system().jacobian_blocks()
             && nb > 0
-            && x0.len() % nb == 0
+            && x0.len().is_multiple_of(nb)
             && x0.len() > nb
             && f.sparse.choice != crate::options::LinearSolver::Sparse
         {

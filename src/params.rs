@@ -231,3 +231,17 @@ where
         crate::sensitivity::write_eps(&r, n, m, ds);
     }
 }
+
+/// A parameter block needs a plain `t` or `_` time: `t: S` is refused with a message.
+///
+/// ```compile_fail
+/// let f = reckon::model!(|t: S, x: [S; 1], p: [S; 1] = [1.0]| reckon::vector![x[0] * p[0]]);
+/// ```
+///
+/// The values must match the block's size (a type error otherwise):
+///
+/// ```compile_fail
+/// let f = reckon::model!(|_, x: [S; 1], p: [S; 2] = [1.0]| reckon::vector![x[0] * p[0]]);
+/// ```
+#[doc(hidden)]
+pub struct ParamBlockChecks;

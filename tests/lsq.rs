@@ -175,3 +175,35 @@ fn malformed_observations_are_typed_errors() {
         })
     ));
 }
+
+/// From a simulated encoder log (`reckoning::errors::simulate`): injected wheel-diameter
+/// and wheelbase errors recovered from the counts and the true poses.
+#[test]
+fn encoder_log_calibration_recovers_injected_geometry() {
+    use reckon::reckoning::drift::square;
+    use reckon::reckoning::encoders::DiffDrive;
+    use reckon::reckoning::errors::{EncoderErrors, simulate};
+    let robot = DiffDrive::new(0.1, 0.5, 2048.0).unwrap();
+    let e = EncoderErrors {
+        left_scale: 1.004,
+        right_scale: 0.997,
+        wheelbase_scale: 1.02,
+        ..Default::default()
+    };
+    let mut cmds = square(3.0, true, 0.5, 0.8);
+    cmds.extend(square(3.0, false, 0.5, 0.8));
+    let run = simulate(&robot, &e, &cmds, 0.05, Vector3::zeros());
+    let poses: Vec<(f64, Vector3<f64>)> = run
+        .samples
+        .iter()
+        .zip(&run.truth)
+        .step_by(10)
+        .map(|(s, p)| (s.0, *p))
+        .collect();
+    let f = lsq::fit_encoder_log(&run.samples, &robot, &poses, [0.005, 0.005, 0.002]).unwrap();
+    let want = [0.05 * 1.004, 0.05 * 0.997, 0.5 * 1.02];
+    for (got, want) in f.params.iter().zip(want) {
+        assert!((got - want).abs() < 1e-7 * want, "{got} vs {want}");
+    }
+    assert_eq!(f.names[2], "wheel separation");
+}

@@ -491,3 +491,88 @@ pub fn diff_drive(p: &[f64]) -> Result<impl DualSystem<nalgebra::Const<3>> + Clo
     })
     .with_params(p)
 }
+
+/// Wheel angular speeds held over each encoder interval: `ω = 2π·Δn / (N·Δt)` for the
+/// increments `Δn` of sample `k` over `(t_{k−1}, t_k]` (`samples[k] = (t_k, Δn_l, Δn_r)`,
+/// the first sample's increments ignored), as [`Controls`] from `t₀`.
+///
+/// ```
+/// use reckon::calibration::lsq::wheel_speeds;
+/// let u = wheel_speeds(&[(0.0, 0.0, 0.0), (0.5, 100.0, 200.0)], 1000.0).unwrap();
+/// let w = u.values(0).unwrap(); // held from t = 0: 100 and 200 pulses in 0.5 s
+/// assert_eq!(u.times(), &[0.0]);
+/// assert!((w[0] - 2.0 * std::f64::consts::PI * 0.2).abs() < 1e-15);
+/// assert!((w[1] - 2.0 * std::f64::consts::PI * 0.4).abs() < 1e-15);
+/// ```
+pub fn wheel_speeds(samples: &[(f64, f64, f64)], pulses_per_rev: f64) -> Result<Controls> {
+    if samples.len() < 2 {
+        return Err(Error::invalid("encoders", "at least two samples are needed"));
+    }
+    let mut t = Vec::with_capacity(samples.len() - 1);
+    let mut u = Vec::with_capacity(samples.len() - 1);
+    for (k, w) in samples.windows(2).enumerate() {
+        let dt = w[1].0 - w[0].0;
+        if !(dt > 0.0 && dt.is_finite()) {
+            return Err(Error::invalid(
+                "encoders",
+                format!(
+                    "sample {} is not after sample {k} (t = {} then {})",
+                    k + 1,
+                    w[0].0,
+                    w[1].0
+                ),
+            ));
+        }
+        let s = 2.0 * PI / (pulses_per_rev * dt);
+        t.push(w[0].0);
+        u.push(vec![w[1].1 * s, w[1].2 * s]);
+    }
+    Controls::new(t, u)
+}
+
+/// Calibrate a differential drive's wheel radii and wheelbase from an encoder log and
+/// measured poses `(t, x, y, θ)` ([`fit`] with [`diff_drive`] and RK45 at rtol 1e-9):
+/// the start pose is the first pose (at or after the first encoder sample), the later
+/// poses up to the last encoder sample are the observations, with standard deviations
+/// `sigma = (σ_x, σ_y, σ_θ)`. Starts from the nominal geometry `robot`. Parameters:
+/// `r_l, r_r` (m), `b` (m).
+pub fn fit_encoder_log(
+    samples: &[(f64, f64, f64)],
+    robot: &crate::reckoning::encoders::DiffDrive,
+    poses: &[(f64, nalgebra::Vector3<f64>)],
+    sigma: [f64; 3],
+) -> Result<Fit> {
+    let controls = wheel_speeds(samples, robot.pulses_per_rev)?;
+    let (t_first, t_last) = (samples[0].0, samples[samples.len() - 1].0);
+    let start = poses
+        .iter()
+        .position(|(t, _)| *t >= t_first)
+        .ok_or_else(|| Error::invalid("poses", "no pose inside the encoder log's time span"))?;
+    let (t0, x0) = poses[start];
+    let later: Vec<&(f64, nalgebra::Vector3<f64>)> = poses[start + 1..].iter().filter(|(t, _)| *t <= t_last).collect();
+    let obs = Observations {
+        t: later.iter().map(|(t, _)| *t).collect(),
+        y: later.iter().map(|(_, p)| p.as_slice().to_vec()).collect(),
+        components: vec![0, 1, 2],
+        sigma: sigma.to_vec(),
+        angles: vec![2],
+    };
+    let r = 0.5 * robot.wheel_diameter;
+    let mut f = fit(
+        &|p: &[f64]| diff_drive(p),
+        &[r, r, robot.wheel_separation],
+        &x0,
+        t0,
+        &controls,
+        &obs,
+        crate::methods::Dopri5::default(),
+        &Options::default().rtol(1e-9).atol(1e-12).max_steps(10_000_000),
+        &LsqOptions::default(),
+    )?;
+    f.names = vec![
+        "left wheel radius".into(),
+        "right wheel radius".into(),
+        "wheel separation".into(),
+    ];
+    Ok(f)
+}

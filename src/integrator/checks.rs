@@ -17,7 +17,7 @@ where
     /// At a breakpoint: switch to the inputs of the interval ahead and tell the method.
     pub(super) fn enter_segment(&mut self) {
         if let Some(c) = &self.problem.controls
-            && let Some(k) = c.segment(self.t, self.dir)
+            && let Some(k) = c.segment_near(self.t, self.dir, self.segment)
             && Some(k) != self.segment
         {
             self.segment = Some(k);

@@ -171,7 +171,10 @@ where
         if let Some(c) = &problem.controls {
             stops.extend(c.times().iter().copied().filter(|&b| inside(b)));
         }
-        stops.sort_by(|a, b| (dir * a).total_cmp(&(dir * b)));
+        // (a control log's times are sorted already: a long log skips the sort)
+        if !stops.is_sorted_by(|a, b| dir * a < dir * b) {
+            stops.sort_by(|a, b| (dir * a).total_cmp(&(dir * b)));
+        }
         stops.dedup();
 
         let mut f = Eval::new(&problem.system, u);
@@ -657,6 +660,9 @@ where
             ));
         }
         let mut out = save::Saver::new(&self.save, self.dir, self.t, &self.x);
+        // at least one step per interval between stops (a long control log): kept states
+        // grow into reserved room instead of by repeated doubling (capped at 2²⁴ up front)
+        out.reserve((self.stops.len() - self.stop_idx + 1).min(1 << 24));
         let mut dense = Vec::new();
         if self.is_lean() {
             // every step kept (the default): the lean loop pushes directly

@@ -81,6 +81,15 @@ where
         self.x.push(x.clone());
     }
 
+    /// Room for `n` more kept steps when every step is kept (a run that knows a lower
+    /// bound on its steps: one per control interval, say).
+    pub(super) fn reserve(&mut self, n: usize) {
+        if self.mode == Mode::Steps {
+            self.t.reserve(n);
+            self.x.reserve(n);
+        }
+    }
+
     /// Whether the run needs each step's dense polynomial (output times).
     pub(super) fn needs_dense(save: &Save) -> bool {
         matches!(save, Save::At(_))

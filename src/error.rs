@@ -142,6 +142,16 @@ pub enum Error {
         /// Time of the matrix it worked on.
         t: f64,
     },
+    /// A calibration's data cannot determine a parameter (for example only straight
+    /// driving, which says nothing about the wheel base): no number is returned rather
+    /// than an arbitrary one.
+    #[error("{parameter} cannot be determined from the data: {reason}")]
+    Unidentifiable {
+        /// Which parameter (or group of parameters).
+        parameter: &'static str,
+        /// Why the data do not determine it.
+        reason: String,
+    },
     /// An event function returned NaN, so whether it changed sign is unknown (a pole,
     /// where it jumps through ±∞, is a sign change; NaN is not).
     #[error("event function {index} is NaN at t = {}", Brief(*.t))]

@@ -7,6 +7,7 @@ pub mod guide {}
 
 #[doc(hidden)]
 pub mod cli;
+pub mod calibration;
 pub mod control;
 pub mod controls;
 pub mod error;

@@ -142,16 +142,15 @@ pub enum Error {
         /// Time of the matrix it worked on.
         t: f64,
     },
-    /// A least-squares fit whose data cannot determine a parameter: the residual Jacobian
-    /// (columns scaled to unit norm) is singular or nearly so.
-    #[error(
-        "the data cannot determine {parameter}: the scaled residual Jacobian has condition number {condition:e} (drive a path that excites it, or fix it)"
-    )]
+    /// A calibration's data cannot determine a parameter (for example only straight
+    /// driving, which says nothing about the wheel base): no number is returned rather
+    /// than an arbitrary one.
+    #[error("{parameter} cannot be determined from the data: {reason}")]
     Unidentifiable {
-        /// The parameter that leans most on the weakest direction.
+        /// Which parameter (or group of parameters).
         parameter: String,
-        /// Condition number of the scaled Jacobian (∞: a column is zero).
-        condition: f64,
+        /// Why the data do not determine it.
+        reason: String,
     },
     /// A least-squares fit did not converge.
     #[error("the {what} fit did not converge: {reason}")]

@@ -274,6 +274,16 @@ where
     }
 }
 
+/// The data leave `name` undetermined: the scaled residual Jacobian's condition is `cond`.
+fn unidentifiable(name: &str, cond: f64) -> Error {
+    Error::Unidentifiable {
+        parameter: name.to_string(),
+        reason: format!(
+            "the residual Jacobian (columns scaled to unit norm) has condition number {cond:e}; drive a path that excites it, or fix it"
+        ),
+    }
+}
+
 /// Condition number of `J` with its columns scaled to unit norm, and the parameter that
 /// leans most on the smallest singular direction.
 fn identifiability(j: &DMatrix<f64>) -> (f64, usize) {
@@ -411,10 +421,7 @@ where
     let (_, j0) = res.eval(p0)?;
     let (cond, q) = identifiability(&j0);
     if cond.is_nan() || cond > lsq.max_condition {
-        return Err(Error::Unidentifiable {
-            parameter: names[q].clone(),
-            condition: cond,
-        });
+        return Err(unidentifiable(&names[q], cond));
     }
     let failure = std::cell::RefCell::new(None);
     let problem = Argmin {
@@ -448,18 +455,15 @@ where
     let (r, j) = res.eval(&p)?;
     let (cond, q) = identifiability(&j);
     if cond.is_nan() || cond > lsq.max_condition {
-        return Err(Error::Unidentifiable {
-            parameter: names[q].clone(),
-            condition: cond,
-        });
+        return Err(unidentifiable(&names[q], cond));
     }
     let dof = (n_res - p.len()) as f64;
     let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / dof;
     let jtj = j.transpose() * &j;
-    let inv = jtj.cholesky().map(|c| c.inverse()).ok_or(Error::Unidentifiable {
-        parameter: names[q].clone(),
-        condition: cond,
-    })?;
+    let inv = jtj
+        .cholesky()
+        .map(|c| c.inverse())
+        .ok_or_else(|| unidentifiable(&names[q], cond))?;
     Ok(Fit {
         names,
         params: p,

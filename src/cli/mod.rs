@@ -2,6 +2,7 @@
 //! it in-process. Not part of the stable API.
 #![allow(missing_docs)]
 
+pub mod calibrate;
 pub mod csvio;
 pub mod demo;
 pub mod jacobian;
@@ -52,6 +53,9 @@ pub enum Command {
     /// A model's right-hand side and Jacobian, traced from its body and printed
     /// symbolically (text, LaTeX, MathML, Rust or JSON with the sparsity pattern).
     Jacobian(jacobian::JacobianArgs),
+    /// Calibrate a differential drive's wheel radii and wheel base from an encoder log
+    /// and measured poses (least squares through the model, or Censi et al. 2013).
+    Calibrate(calibrate::CalibrateArgs),
 }
 
 /// Parse `argv` (program name first) and run the command. `Err` carries clap's own
@@ -85,5 +89,6 @@ pub fn dispatch(args: Args) -> Result<(), Box<dyn std::error::Error>> {
         Command::Stiffness(a) => studies::stiffness(&a),
         Command::WorkPrecision(a) => studies::work_precision(&a),
         Command::Jacobian(a) => jacobian::run(&a),
+        Command::Calibrate(a) => calibrate::run(&a),
     }
 }

@@ -1,0 +1,166 @@
+//! `reckon calibrate`: a differential drive's wheel radii and wheel base from an encoder
+//! log and measured poses, by least squares through the model (`lsq`) or by Censi et
+//! al.'s two-step method on the intervals between poses (`censi`).
+
+use super::csvio::{RowWriter, check_not_input, num, read_table};
+use crate::calibration::{censi, lsq};
+use crate::reckoning::encoders::{DiffDrive, Update, advance};
+use clap::{Parser, ValueEnum};
+use nalgebra::Vector3;
+use std::error::Error;
+use std::path::PathBuf;
+
+/// How the parameters are estimated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// Gauss–Newton (argmin) through the model with wheel radii and wheel base as
+    /// parameters, the residuals' Jacobian from the sensitivities; every pose after the
+    /// first is an observation.
+    Lsq,
+    /// Censi et al. 2013: each interval between consecutive poses gives a displacement
+    /// (the poses are the sensor's, so its pose on the robot is estimated too).
+    Censi,
+}
+
+/// Arguments of `reckon calibrate`.
+#[derive(Debug, Parser)]
+#[command(
+    after_help = "The encoders CSV is read as by `reckon odometry` (header t,left,right; \
+pulse increments since the previous row). The poses CSV has header t,x,y,theta (metres, \
+radians, the same clock). The first pose at or after the first encoder row is the start; \
+the corrected odometry is dead-reckoned from it with the calibrated geometry (exact arcs) \
+and written as t,x,y,theta. UMBmark works on square runs, not logs: use \
+reckon::calibration::umbmark from Rust."
+)]
+pub struct CalibrateArgs {
+    /// Encoders CSV: header t,left,right (pulse increments).
+    #[arg(long)]
+    pub encoders: PathBuf,
+    /// Poses CSV: header t,x,y,theta.
+    #[arg(long)]
+    pub poses: PathBuf,
+    /// Estimation method.
+    #[arg(long, value_enum, default_value_t = Method::Lsq)]
+    pub method: Method,
+    /// Nominal wheel diameter in metres (the starting point).
+    #[arg(long, allow_hyphen_values = true)]
+    pub wheel_diameter: f64,
+    /// Nominal distance between the wheels in metres.
+    #[arg(long, allow_hyphen_values = true)]
+    pub wheel_separation: f64,
+    /// Encoder pulses per wheel revolution.
+    #[arg(long, allow_hyphen_values = true)]
+    pub pulses_per_rev: f64,
+    /// Standard deviation of the poses' x and y (m), for lsq.
+    #[arg(long, default_value_t = 0.01)]
+    pub sigma_xy: f64,
+    /// Standard deviation of the poses' heading (rad), for lsq.
+    #[arg(long, default_value_t = 0.01)]
+    pub sigma_theta: f64,
+    /// Corrected odometry CSV (default: standard output; the parameters go to stderr then).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Run the command.
+pub fn run(args: &CalibrateArgs) -> Result<(), Box<dyn Error>> {
+    let robot = DiffDrive::new(args.wheel_diameter, args.wheel_separation, args.pulses_per_rev)?;
+    check_not_input(args.out.as_deref(), &args.encoders)?;
+    check_not_input(args.out.as_deref(), &args.poses)?;
+    let enc = read_table(&args.encoders, &["t", "left", "right"])?;
+    if let Some(e) = enc.error {
+        return Err(e.into());
+    }
+    let pos = read_table(&args.poses, &["t", "x", "y", "theta"])?;
+    if let Some(e) = pos.error {
+        return Err(e.into());
+    }
+    let samples: Vec<(f64, f64, f64)> = enc.rows.iter().map(|(_, r)| (r[0], r[1], r[2])).collect();
+    let poses: Vec<(f64, Vector3<f64>)> = pos
+        .rows
+        .iter()
+        .map(|(_, r)| (r[0], Vector3::new(r[1], r[2], r[3])))
+        .collect();
+    if samples.len() < 2 || poses.len() < 2 {
+        return Err("calibrate needs at least two encoder rows and two poses".into());
+    }
+    let (r_l, r_r, b, report) = match args.method {
+        Method::Lsq => {
+            let f = lsq::fit_encoder_log(
+                &samples,
+                &robot,
+                &poses,
+                [args.sigma_xy, args.sigma_xy, args.sigma_theta],
+            )?;
+            let sd = f.std_dev();
+            let text = (0..3)
+                .map(|i| format!("{} = {} ± {} m", f.names[i], num(f.params[i]), num(sd[i])))
+                .chain([format!(
+                    "sigma^2 = {} ({} Gauss-Newton iterations)",
+                    num(f.sigma2),
+                    f.iterations
+                )])
+                .collect::<Vec<_>>();
+            (f.params[0], f.params[1], f.params[2], text)
+        }
+        Method::Censi => {
+            let data = censi_intervals(&samples, &poses, robot.pulses_per_rev)?;
+            let f = censi::calibrate(&data, censi::Trim::default())?;
+            let sd = f.estimate.std_dev();
+            let text = f
+                .estimate
+                .names
+                .iter()
+                .zip(f.estimate.value.iter().zip(&sd))
+                .map(|(n, (v, s))| format!("{n} = {} ± {}", num(*v), num(*s)))
+                .collect();
+            (f.params.r_l, f.params.r_r, f.params.b, text)
+        }
+    };
+    let mut err = std::io::stderr();
+    let mut to_stdout = std::io::stdout();
+    let sink: &mut dyn std::io::Write = if args.out.is_some() { &mut to_stdout } else { &mut err };
+    for line in &report {
+        writeln!(sink, "{line}")?;
+    }
+    // the corrected odometry from the first pose on
+    let mut out = RowWriter::open(args.out.as_deref())?;
+    out.line("t,x,y,theta")?;
+    let (t0, mut pose) = poses[0];
+    let k = 2.0 * std::f64::consts::PI / robot.pulses_per_rev;
+    out.row(t0, pose.as_slice())?;
+    for &(t, nl, nr) in samples.iter().filter(|s| s.0 > t0) {
+        let (dl, dr) = (nl * k * r_l, nr * k * r_r);
+        pose = advance(&pose, 0.5 * (dl + dr), (dr - dl) / b, Update::Exact);
+        out.row(t, pose.as_slice())?;
+    }
+    Ok(out.flush()?)
+}
+
+/// Intervals between consecutive poses: the wheel rotations of the encoder rows inside,
+/// and the relative pose `⊖p_k ⊕ p_{k+1}`.
+fn censi_intervals(
+    samples: &[(f64, f64, f64)],
+    poses: &[(f64, Vector3<f64>)],
+    ppr: f64,
+) -> Result<Vec<censi::Interval>, Box<dyn Error>> {
+    let k = 2.0 * std::f64::consts::PI / ppr;
+    let mut out = Vec::new();
+    for w in poses.windows(2) {
+        let ((ta, a), (tb, bp)) = (w[0], w[1]);
+        let wheels: Vec<[f64; 2]> = samples
+            .iter()
+            .filter(|s| s.0 > ta && s.0 <= tb)
+            .map(|s| [s.1 * k, s.2 * k])
+            .collect();
+        if wheels.is_empty() {
+            continue;
+        }
+        let (s, c) = a[2].sin_cos();
+        let d = bp - a;
+        let dth = d[2].sin().atan2(d[2].cos());
+        let rel = Vector3::new(c * d[0] + s * d[1], -s * d[0] + c * d[1], dth);
+        out.push(censi::Interval { wheels, sensor: rel });
+    }
+    Ok(out)
+}

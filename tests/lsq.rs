@@ -8,23 +8,11 @@ use reckon::calibration::lsq::{self, LsqOptions, Observations, diff_drive};
 use reckon::methods::Dopri5;
 use reckon::{Controls, Error, Options, Problem, Save};
 
+#[path = "common/drives.rs"]
+mod drives;
+
 const TRUTH: [f64; 3] = [0.0502, 0.0497, 0.405];
 const NOMINAL: [f64; 3] = [0.05, 0.05, 0.4];
-
-/// Wheel speeds (rad/s) changing every 2 s over 60 s: straight runs and turns both ways.
-fn drive() -> Controls {
-    let pattern = [
-        (10.0, 10.0),
-        (6.0, 12.0),
-        (12.0, 12.0),
-        (12.0, 5.0),
-        (-4.0, 4.0),
-        (8.0, 9.0),
-    ];
-    let t: Vec<f64> = (0..30).map(|k| 2.0 * k as f64).collect();
-    let u = (0..30).map(|k| vec![pattern[k % 6].0, pattern[k % 6].1]).collect();
-    Controls::new(t, u).unwrap()
-}
 
 fn times() -> Vec<f64> {
     (1..=120).map(|k| 0.5 * k as f64).collect()
@@ -84,11 +72,11 @@ fn fit(obs: &Observations, controls: &Controls) -> reckon::Result<lsq::Fit> {
 
 #[test]
 fn noise_free_log_gives_the_parameters_back() {
-    let u = drive();
+    let u = drives::wheel_speed_log();
     let t = times();
     let obs = observe(&truth_poses(&u, &TRUTH, &t), t, [0.005, 0.005, 0.002], None);
     let f = fit(&obs, &u).unwrap();
-    for (got, want) in f.params.iter().zip(TRUTH) {
+    for (got, want) in f.estimate.value.iter().zip(TRUTH) {
         assert!((got - want).abs() < 1e-8 * want, "{got} vs {want}");
     }
     assert!(f.iterations >= 2 && f.iterations < 30, "{} iterations", f.iterations);
@@ -99,21 +87,25 @@ fn noise_free_log_gives_the_parameters_back() {
 /// mean of eight is within [0.5, 6] with probability above 0.999) and σ̂² ≈ 1.
 #[test]
 fn noisy_logs_recover_the_parameters_within_their_covariance() {
-    let u = drive();
+    let u = drives::wheel_speed_log();
     let t = times();
     let poses = truth_poses(&u, &TRUTH, &t);
     let mut nees = Vec::new();
     for seed in 1..=8 {
         let obs = observe(&poses, t.clone(), [0.005, 0.005, 0.002], Some(seed));
         let f = fit(&obs, &u).unwrap();
-        let e = DVector::from_iterator(3, (0..3).map(|i| f.params[i] - TRUTH[i]));
-        let pinv: DMatrix<f64> = f.covariance.clone().try_inverse().unwrap();
+        let e = DVector::from_iterator(3, (0..3).map(|i| f.estimate.value[i] - TRUTH[i]));
+        let pinv: DMatrix<f64> = f.estimate.covariance.clone().try_inverse().unwrap();
         let q = (e.transpose() * pinv * &e)[(0, 0)];
         assert!(q < 16.27, "seed {seed}: normalised error {q}");
         // 357 degrees of freedom: σ̂² has standard deviation √(2/357) = 0.075
-        assert!((f.sigma2 - 1.0).abs() < 0.3, "seed {seed}: σ̂² = {}", f.sigma2);
+        assert!(
+            (f.estimate.sigma2 - 1.0).abs() < 0.3,
+            "seed {seed}: σ̂² = {}",
+            f.estimate.sigma2
+        );
         // and the wheelbase is determined to better than a millimetre here
-        assert!(f.std_dev()[2] < 1e-3, "σ_b = {}", f.std_dev()[2]);
+        assert!(f.estimate.std_dev()[2] < 1e-3, "σ_b = {}", f.estimate.std_dev()[2]);
         nees.push(q);
     }
     let mean = nees.iter().sum::<f64>() / nees.len() as f64;
@@ -135,7 +127,7 @@ fn straight_driving_cannot_determine_the_wheelbase() {
 
 #[test]
 fn malformed_observations_are_typed_errors() {
-    let u = drive();
+    let u = drives::wheel_speed_log();
     let t = times();
     let good = observe(&truth_poses(&u, &TRUTH, &t), t, [0.005, 0.005, 0.002], None);
     let mut bad = good.clone();
@@ -180,19 +172,8 @@ fn malformed_observations_are_typed_errors() {
 /// and wheelbase errors recovered from the counts and the true poses.
 #[test]
 fn encoder_log_calibration_recovers_injected_geometry() {
-    use reckon::reckoning::drift::square;
-    use reckon::reckoning::encoders::DiffDrive;
-    use reckon::reckoning::errors::{EncoderErrors, simulate};
-    let robot = DiffDrive::new(0.1, 0.5, 2048.0).unwrap();
-    let e = EncoderErrors {
-        left_scale: 1.004,
-        right_scale: 0.997,
-        wheelbase_scale: 1.02,
-        ..Default::default()
-    };
-    let mut cmds = square(3.0, true, 0.5, 0.8);
-    cmds.extend(square(3.0, false, 0.5, 0.8));
-    let run = simulate(&robot, &e, &cmds, 0.05, Vector3::zeros());
+    let robot = drives::square_robot();
+    let run = drives::square_log();
     let poses: Vec<(f64, Vector3<f64>)> = run
         .samples
         .iter()
@@ -202,8 +183,8 @@ fn encoder_log_calibration_recovers_injected_geometry() {
         .collect();
     let f = lsq::fit_encoder_log(&run.samples, &robot, &poses, [0.005, 0.005, 0.002]).unwrap();
     let want = [0.05 * 1.004, 0.05 * 0.997, 0.5 * 1.02];
-    for (got, want) in f.params.iter().zip(want) {
+    for (got, want) in f.estimate.value.iter().zip(want) {
         assert!((got - want).abs() < 1e-7 * want, "{got} vs {want}");
     }
-    assert_eq!(f.names[2], "wheel separation");
+    assert_eq!(f.estimate.names[2], "wheel separation");
 }

@@ -381,7 +381,9 @@ pub fn calibrate(data: &[Interval], trim: Trim) -> Result<CensiFit> {
     let sigma2 = residuals.iter().map(|r| r * r).sum::<f64>() / dof as f64;
     Ok(CensiFit {
         estimate: Estimate {
-            names: vec!["J21", "J22", "b", "l_x", "l_y", "l_theta", "r_L", "r_R"],
+            names: ["J21", "J22", "b", "l_x", "l_y", "l_theta", "r_L", "r_R"]
+                .map(String::from)
+                .to_vec(),
             value: vec![j21, j22, b, lx, ly, lth, params.r_l, params.r_r],
             covariance: cov8,
             residuals,

@@ -19,12 +19,11 @@ use crate::options::{Options, Save};
 use crate::problem::Problem;
 use crate::sensitivity::{self, Augment, SensitivityOptions};
 use crate::system::DualSystem;
-use argmin::core::{CostFunction, Executor, Gradient, Jacobian, Operator, State};
+use argmin::core::{Executor, Jacobian, Operator, State};
 use argmin::solver::gaussnewton::GaussNewtonLS;
 use argmin::solver::linesearch::{BacktrackingLineSearch, condition::ArmijoCondition};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, OVector, U1};
-use std::f64::consts::PI;
 
 /// Measured poses and what is compared.
 #[derive(Debug, Clone)]
@@ -65,30 +64,17 @@ impl Default for LsqOptions {
     }
 }
 
-/// A least-squares estimate.
+/// A least-squares estimate: [`Estimate`](super::Estimate) with `covariance = σ̂²·(JᵀJ)⁻¹`
+/// at `p̂`, `σ̂² = ‖r‖² / (N − n_p)`, the weighted residuals observation-major
+/// (`r[k·|C| + c]`), and how the fit went.
 #[derive(Debug, Clone)]
 pub struct Fit {
-    /// Parameter names (as given).
-    pub names: Vec<String>,
-    /// The estimate `p̂`.
-    pub params: Vec<f64>,
-    /// `σ̂²·(JᵀJ)⁻¹` at `p̂`.
-    pub covariance: DMatrix<f64>,
-    /// Weighted residuals at `p̂` (observation-major: `r[k·|C| + c]`).
-    pub residuals: Vec<f64>,
-    /// `σ̂² = ‖r‖² / (N − n_p)`.
-    pub sigma2: f64,
+    /// Names, `p̂`, covariance, residuals, `σ̂²`.
+    pub estimate: super::Estimate,
     /// Gauss–Newton iterations.
     pub iterations: u64,
     /// Condition number of the column-scaled `J` at `p̂`.
     pub condition: f64,
-}
-
-impl Fit {
-    /// Standard deviations `√diag(covariance)`.
-    pub fn std_dev(&self) -> Vec<f64> {
-        (0..self.params.len()).map(|i| self.covariance[(i, i)].sqrt()).collect()
-    }
 }
 
 /// The residual Jacobian as argmin's Jacobian type (a nalgebra matrix behind a newtype:
@@ -171,7 +157,7 @@ where
             for (c, &comp) in self.obs.components.iter().enumerate() {
                 let mut d = sol.x[i][comp] - y[c];
                 if self.obs.angles.contains(&comp) {
-                    d = wrap(d);
+                    d = crate::models::wrap_angle(d);
                 }
                 let w = 1.0 / self.obs.sigma[c];
                 r.push(d * w);
@@ -184,93 +170,68 @@ where
     }
 }
 
-/// `a` wrapped to `(−π, π]`.
-fn wrap(a: f64) -> f64 {
-    let w = a - 2.0 * PI * ((a + PI) / (2.0 * PI)).floor();
-    if w <= -PI { w + 2.0 * PI } else { w }
+/// Weighted residuals `r` and their Jacobian `J`.
+type RJ = (Vec<f64>, DMatrix<f64>);
+/// `p ↦ (r, J)`.
+type Evaluator<'a> = dyn Fn(&[f64]) -> Result<RJ> + 'a;
+
+/// The residuals and their Jacobian at `p` from one sensitivity solve (`eval`), the last
+/// pair kept: Gauss–Newton asks for both at the same point, and the fit checks the start
+/// and the optimum again. The first solve error is kept too (argmin's errors are strings).
+struct Cached<'a> {
+    eval: &'a Evaluator<'a>,
+    last: std::cell::RefCell<Option<(Vec<f64>, RJ)>>,
+    failure: std::cell::RefCell<Option<Error>>,
 }
 
-/// The argmin problem: interior errors of the solve are kept (argmin's errors are strings).
-struct Argmin<'a, 'b, D: Dim, S, B, M>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    res: &'b Residuals<'a, D, S, B, M>,
-    failure: &'b std::cell::RefCell<Option<Error>>,
+impl<'a> Cached<'a> {
+    fn new(eval: &'a Evaluator<'a>) -> Self {
+        Cached {
+            eval,
+            last: Default::default(),
+            failure: Default::default(),
+        }
+    }
+
+    /// `(r, J)` at `p`: the kept pair when `p` is the point it was computed at.
+    fn at(&self, p: &[f64]) -> Result<RJ> {
+        if let Some((q, rj)) = self.last.borrow().as_ref()
+            && q.as_slice() == p
+        {
+            return Ok(rj.clone());
+        }
+        let rj = (self.eval)(p)?;
+        *self.last.borrow_mut() = Some((p.to_vec(), rj.clone()));
+        Ok(rj)
+    }
 }
 
-impl<D: Dim, S, B, M> Argmin<'_, '_, D, S, B, M>
-where
-    S: DualSystem<D>,
-    B: Fn(&[f64]) -> Result<S>,
-    M: Augment<D> + Clone,
-    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
-{
-    fn eval(&self, p: &[f64]) -> std::result::Result<(Vec<f64>, DMatrix<f64>), argmin_math::Error> {
-        self.res.eval(p).map_err(|e| {
+/// What argmin sees: [`Cached`] with its errors kept.
+struct Argmin<'a, 'b>(&'b Cached<'a>);
+
+impl Argmin<'_, '_> {
+    fn at(&self, p: &[f64]) -> std::result::Result<RJ, argmin_math::Error> {
+        self.0.at(p).map_err(|e| {
             let msg = e.to_string();
-            self.failure.borrow_mut().get_or_insert(e);
+            self.0.failure.borrow_mut().get_or_insert(e);
             argmin_math::Error::msg(msg)
         })
     }
 }
 
-impl<D: Dim, S, B, M> Operator for Argmin<'_, '_, D, S, B, M>
-where
-    S: DualSystem<D>,
-    B: Fn(&[f64]) -> Result<S>,
-    M: Augment<D> + Clone,
-    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
-{
+impl Operator for Argmin<'_, '_> {
     type Param = Vec<f64>;
     type Output = Vec<f64>;
     fn apply(&self, p: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin_math::Error> {
-        Ok(self.eval(p)?.0)
+        Ok(self.at(p)?.0)
     }
 }
 
-impl<D: Dim, S, B, M> Jacobian for Argmin<'_, '_, D, S, B, M>
-where
-    S: DualSystem<D>,
-    B: Fn(&[f64]) -> Result<S>,
-    M: Augment<D> + Clone,
-    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
-{
+impl Jacobian for Argmin<'_, '_> {
     type Param = Vec<f64>;
     type Jacobian = Jac;
     fn jacobian(&self, p: &Vec<f64>) -> std::result::Result<Jac, argmin_math::Error> {
-        Ok(Jac(self.eval(p)?.1))
-    }
-}
-
-// (argmin's line search asks for a cost and a gradient of the problem it wraps; Gauss–Newton
-// provides them from the residuals, these are for completeness of the trait bounds)
-impl<D: Dim, S, B, M> CostFunction for Argmin<'_, '_, D, S, B, M>
-where
-    S: DualSystem<D>,
-    B: Fn(&[f64]) -> Result<S>,
-    M: Augment<D> + Clone,
-    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
-{
-    type Param = Vec<f64>;
-    type Output = f64;
-    fn cost(&self, p: &Vec<f64>) -> std::result::Result<f64, argmin_math::Error> {
-        Ok(0.5 * self.eval(p)?.0.iter().map(|r| r * r).sum::<f64>())
-    }
-}
-
-impl<D: Dim, S, B, M> Gradient for Argmin<'_, '_, D, S, B, M>
-where
-    S: DualSystem<D>,
-    B: Fn(&[f64]) -> Result<S>,
-    M: Augment<D> + Clone,
-    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
-{
-    type Param = Vec<f64>;
-    type Gradient = Vec<f64>;
-    fn gradient(&self, p: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin_math::Error> {
-        let (r, j) = self.eval(p)?;
-        Ok((j.transpose() * DVector::from_vec(r)).as_slice().to_vec())
+        Ok(Jac(self.at(p)?.1))
     }
 }
 
@@ -287,16 +248,12 @@ fn unidentifiable(name: &str, cond: f64) -> Error {
 /// Condition number of `J` with its columns scaled to unit norm, and the parameter that
 /// leans most on the smallest singular direction.
 fn identifiability(j: &DMatrix<f64>) -> (f64, usize) {
+    if let Some(q) = j.column_iter().position(|c| c.norm() == 0.0) {
+        return (f64::INFINITY, q);
+    }
     let mut js = j.clone();
     for mut c in js.column_iter_mut() {
-        let n = c.norm();
-        if n > 0.0 {
-            c /= n;
-        }
-    }
-    if j.column_iter().any(|c| c.norm() == 0.0) {
-        let q = j.column_iter().position(|c| c.norm() == 0.0).unwrap_or(0);
-        return (f64::INFINITY, q);
+        c /= c.norm();
     }
     let svd = js.svd(false, true);
     let (imin, smin) = svd
@@ -335,7 +292,7 @@ fn identifiability(j: &DMatrix<f64>) -> (f64, usize) {
 /// let u = Controls::new(vec![0.0], vec![vec![0.0]]).unwrap();
 /// let fit = lsq::fit(&build, &[0.2], &vector![1.0], 0.0, &u, &obs, Dopri5::default(),
 ///     &Options::default().rtol(1e-10).atol(1e-12), &LsqOptions::default()).unwrap();
-/// assert!((fit.params[0] - 0.7).abs() < 1e-8);
+/// assert!((fit.estimate.value[0] - 0.7).abs() < 1e-8);
 /// ```
 #[allow(clippy::too_many_arguments)]
 pub fn fit<D, S, B, M>(
@@ -418,28 +375,25 @@ where
     };
     let names: Vec<String> = (0..p0.len()).map(|i| format!("p[{i}]")).collect();
     // identifiable at the start?
-    let (_, j0) = res.eval(p0)?;
+    let eval = |p: &[f64]| res.eval(p);
+    let cached = Cached::new(&eval);
+    let (_, j0) = cached.at(p0)?;
     let (cond, q) = identifiability(&j0);
     if cond.is_nan() || cond > lsq.max_condition {
         return Err(unidentifiable(&names[q], cond));
     }
-    let failure = std::cell::RefCell::new(None);
-    let problem = Argmin {
-        res: &res,
-        failure: &failure,
-    };
     let armijo = ArmijoCondition::new(1e-4).map_err(|e| Error::invalid("lsq", e.to_string()))?;
     let ls = BacktrackingLineSearch::new(armijo);
     let gn = GaussNewtonLS::new(ls)
         .with_tolerance(lsq.tol.max(f64::MIN_POSITIVE))
         .map_err(|e| Error::invalid("lsq", e.to_string()))?;
-    let out = Executor::new(problem, gn)
+    let out = Executor::new(Argmin(&cached), gn)
         .configure(|c| c.param(p0.to_vec()).max_iters(lsq.max_iters))
         .run();
     let out = match out {
         Ok(o) => o,
         Err(e) => {
-            return Err(failure.into_inner().unwrap_or(Error::FitFailed {
+            return Err(cached.failure.take().unwrap_or(Error::FitFailed {
                 what: "Gauss-Newton (lsq)",
                 reason: e.to_string(),
             }));
@@ -452,24 +406,19 @@ where
         .or(out.state.get_param())
         .cloned()
         .unwrap_or_else(|| p0.to_vec());
-    let (r, j) = res.eval(&p)?;
+    let (r, j) = cached.at(&p)?;
     let (cond, q) = identifiability(&j);
     if cond.is_nan() || cond > lsq.max_condition {
         return Err(unidentifiable(&names[q], cond));
     }
-    let dof = (n_res - p.len()) as f64;
-    let sigma2 = r.iter().map(|v| v * v).sum::<f64>() / dof;
-    let jtj = j.transpose() * &j;
-    let inv = jtj
+    let inv = (j.transpose() * &j)
         .cholesky()
         .map(|c| c.inverse())
         .ok_or_else(|| unidentifiable(&names[q], cond))?;
+    let mut estimate = super::Estimate::new(names, p, inv, r);
+    estimate.covariance *= estimate.sigma2;
     Ok(Fit {
-        names,
-        params: p,
-        covariance: inv * sigma2,
-        residuals: r,
-        sigma2,
+        estimate,
         iterations,
         condition: cond,
     })
@@ -527,7 +476,7 @@ pub fn wheel_speeds(samples: &[(f64, f64, f64)], pulses_per_rev: f64) -> Result<
                 ),
             ));
         }
-        let s = 2.0 * PI / (pulses_per_rev * dt);
+        let s = std::f64::consts::TAU / (pulses_per_rev * dt);
         t.push(w[0].0);
         u.push(vec![w[1].1 * s, w[1].2 * s]);
     }
@@ -573,7 +522,7 @@ pub fn fit_encoder_log(
         &Options::default().rtol(1e-9).atol(1e-12).max_steps(10_000_000),
         &LsqOptions::default(),
     )?;
-    f.names = vec![
+    f.estimate.names = vec![
         "left wheel radius".into(),
         "right wheel radius".into(),
         "wheel separation".into(),

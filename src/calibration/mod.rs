@@ -30,7 +30,7 @@ use nalgebra::DMatrix;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Estimate {
     /// Parameter names, in the order of `value` and of the covariance's rows.
-    pub names: Vec<&'static str>,
+    pub names: Vec<String>,
     /// Estimated values `p̂`.
     pub value: Vec<f64>,
     /// Covariance `Σ_p̂` (`names.len()` square).
@@ -51,7 +51,13 @@ impl Estimate {
     /// let e = Estimate::new(vec!["x"], vec![3.0], nalgebra::DMatrix::from_element(1, 1, 0.25), vec![1.0, 1.0, 2.0]);
     /// assert_eq!((e.dof, e.sigma2), (2, 3.0));
     /// ```
-    pub fn new(names: Vec<&'static str>, value: Vec<f64>, covariance: DMatrix<f64>, residuals: Vec<f64>) -> Self {
+    pub fn new<N: Into<String>>(
+        names: impl IntoIterator<Item = N>,
+        value: Vec<f64>,
+        covariance: DMatrix<f64>,
+        residuals: Vec<f64>,
+    ) -> Self {
+        let names = names.into_iter().map(Into::into).collect();
         let dof = residuals.len().saturating_sub(value.len());
         let rss: f64 = residuals.iter().map(|r| r * r).sum();
         let sigma2 = if dof > 0 { rss / dof as f64 } else { 0.0 };
@@ -87,7 +93,7 @@ impl Estimate {
     /// assert_eq!(e.get("y"), None);
     /// ```
     pub fn get(&self, name: &str) -> Option<(f64, f64)> {
-        let i = self.names.iter().position(|n| *n == name)?;
+        let i = self.names.iter().position(|n| n == name)?;
         Some((self.value[i], self.covariance[(i, i)].max(0.0).sqrt()))
     }
 }

@@ -4,7 +4,7 @@
 
 use super::csvio::{RowWriter, check_not_input, num, read_table};
 use crate::calibration::{censi, lsq};
-use crate::reckoning::encoders::{DiffDrive, Update, advance};
+use crate::reckoning::encoders::{Update, advance};
 use clap::{Parser, ValueEnum};
 use nalgebra::Vector3;
 use std::error::Error;
@@ -42,15 +42,9 @@ pub struct CalibrateArgs {
     /// Estimation method.
     #[arg(long, value_enum, default_value_t = Method::Lsq)]
     pub method: Method,
-    /// Nominal wheel diameter in metres (the starting point).
-    #[arg(long, allow_hyphen_values = true)]
-    pub wheel_diameter: f64,
-    /// Nominal distance between the wheels in metres.
-    #[arg(long, allow_hyphen_values = true)]
-    pub wheel_separation: f64,
-    /// Encoder pulses per wheel revolution.
-    #[arg(long, allow_hyphen_values = true)]
-    pub pulses_per_rev: f64,
+    /// The nominal geometry (the starting point).
+    #[command(flatten)]
+    pub geometry: super::odometry::Geometry,
     /// Standard deviation of the poses' x and y (m), for lsq.
     #[arg(long, default_value_t = 0.01)]
     pub sigma_xy: f64,
@@ -64,7 +58,7 @@ pub struct CalibrateArgs {
 
 /// Run the command.
 pub fn run(args: &CalibrateArgs) -> Result<(), Box<dyn Error>> {
-    let robot = DiffDrive::new(args.wheel_diameter, args.wheel_separation, args.pulses_per_rev)?;
+    let robot = args.geometry.robot()?;
     check_not_input(args.out.as_deref(), &args.encoders)?;
     check_not_input(args.out.as_deref(), &args.poses)?;
     let enc = read_table(&args.encoders, &["t", "left", "right"])?;
@@ -92,28 +86,19 @@ pub fn run(args: &CalibrateArgs) -> Result<(), Box<dyn Error>> {
                 &poses,
                 [args.sigma_xy, args.sigma_xy, args.sigma_theta],
             )?;
-            let sd = f.std_dev();
-            let text = (0..3)
-                .map(|i| format!("{} = {} ± {} m", f.names[i], num(f.params[i]), num(sd[i])))
-                .chain([format!(
-                    "sigma^2 = {} ({} Gauss-Newton iterations)",
-                    num(f.sigma2),
-                    f.iterations
-                )])
-                .collect::<Vec<_>>();
-            (f.params[0], f.params[1], f.params[2], text)
+            let mut text = lines(&f.estimate, " m");
+            text.push(format!(
+                "sigma^2 = {} ({} Gauss-Newton iterations)",
+                num(f.estimate.sigma2),
+                f.iterations
+            ));
+            let v = &f.estimate.value;
+            (v[0], v[1], v[2], text)
         }
         Method::Censi => {
             let data = censi_intervals(&samples, &poses, robot.pulses_per_rev)?;
             let f = censi::calibrate(&data, censi::Trim::default())?;
-            let sd = f.estimate.std_dev();
-            let text = f
-                .estimate
-                .names
-                .iter()
-                .zip(f.estimate.value.iter().zip(&sd))
-                .map(|(n, (v, s))| format!("{n} = {} ± {}", num(*v), num(*s)))
-                .collect();
+            let text = lines(&f.estimate, "");
             (f.params.r_l, f.params.r_r, f.params.b, text)
         }
     };
@@ -127,7 +112,7 @@ pub fn run(args: &CalibrateArgs) -> Result<(), Box<dyn Error>> {
     let mut out = RowWriter::open(args.out.as_deref())?;
     out.line("t,x,y,theta")?;
     let (t0, mut pose) = poses[0];
-    let k = 2.0 * std::f64::consts::PI / robot.pulses_per_rev;
+    let k = std::f64::consts::TAU / robot.pulses_per_rev;
     out.row(t0, pose.as_slice())?;
     for &(t, nl, nr) in samples.iter().filter(|s| s.0 > t0) {
         let (dl, dr) = (nl * k * r_l, nr * k * r_r);
@@ -135,6 +120,14 @@ pub fn run(args: &CalibrateArgs) -> Result<(), Box<dyn Error>> {
         out.row(t, pose.as_slice())?;
     }
     Ok(out.flush()?)
+}
+
+/// `name = value ± σ unit`, one line per parameter.
+fn lines(e: &crate::calibration::Estimate, unit: &str) -> Vec<String> {
+    let sd = e.std_dev();
+    (0..e.value.len())
+        .map(|i| format!("{} = {} ± {}{unit}", e.names[i], num(e.value[i]), num(sd[i])))
+        .collect()
 }
 
 /// Intervals between consecutive poses: the wheel rotations of the encoder rows inside,
@@ -158,8 +151,11 @@ fn censi_intervals(
         }
         let (s, c) = a[2].sin_cos();
         let d = bp - a;
-        let dth = d[2].sin().atan2(d[2].cos());
-        let rel = Vector3::new(c * d[0] + s * d[1], -s * d[0] + c * d[1], dth);
+        let rel = Vector3::new(
+            c * d[0] + s * d[1],
+            -s * d[0] + c * d[1],
+            crate::models::wrap_angle(d[2]),
+        );
         out.push(censi::Interval { wheels, sensor: rel });
     }
     Ok(out)

@@ -33,15 +33,9 @@ pub struct OdometryArgs {
     /// since the previous sample, or running counts with --counts cumulative.
     #[arg(long)]
     pub encoders: PathBuf,
-    /// Wheel diameter in metres.
-    #[arg(long, allow_hyphen_values = true)]
-    pub wheel_diameter: f64,
-    /// Distance between the wheels in metres.
-    #[arg(long, allow_hyphen_values = true)]
-    pub wheel_separation: f64,
-    /// Encoder pulses per wheel revolution.
-    #[arg(long, allow_hyphen_values = true)]
-    pub pulses_per_rev: f64,
+    /// The robot's encoder geometry.
+    #[command(flatten)]
+    pub geometry: Geometry,
     /// What the left and right columns hold.
     #[arg(long, value_enum, default_value_t = Counts::Increments)]
     pub counts: Counts,
@@ -51,6 +45,28 @@ pub struct OdometryArgs {
     /// Output CSV (default: standard output); may not be the encoders file.
     #[arg(long)]
     pub out: Option<PathBuf>,
+}
+
+/// A differential drive's encoder geometry on the command line (`reckon odometry`, and the
+/// nominal values `reckon calibrate` starts from).
+#[derive(Debug, clap::Args)]
+pub struct Geometry {
+    /// Wheel diameter in metres.
+    #[arg(long, allow_hyphen_values = true)]
+    pub wheel_diameter: f64,
+    /// Distance between the wheels in metres.
+    #[arg(long, allow_hyphen_values = true)]
+    pub wheel_separation: f64,
+    /// Encoder pulses per wheel revolution.
+    #[arg(long, allow_hyphen_values = true)]
+    pub pulses_per_rev: f64,
+}
+
+impl Geometry {
+    /// The validated geometry ([`DiffDrive::new`]).
+    pub fn robot(&self) -> crate::Result<DiffDrive> {
+        DiffDrive::new(self.wheel_diameter, self.wheel_separation, self.pulses_per_rev)
+    }
 }
 
 /// Rows the cumulative-counts heuristic looks at.
@@ -101,7 +117,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// the pose before the first row is (0, 0, 0); cumulative: the pose at the first row is
 /// (0, 0, 0)); rows before a bad one are written, then the error naming its line.
 pub fn run(args: &OdometryArgs) -> Result<(), Box<dyn Error>> {
-    let robot = DiffDrive::new(args.wheel_diameter, args.wheel_separation, args.pulses_per_rev)?;
+    let robot = args.geometry.robot()?;
     let rule: Update = args.update.parse()?;
     let mut rdr = Rows::open(&args.encoders, &["t", "left", "right"])?;
     check_not_input(args.out.as_deref(), &args.encoders)?;

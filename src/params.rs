@@ -126,30 +126,10 @@ where
         let n = x.len();
         let md = M::from_usize(n + self.params.len());
         let xd = x.map_with_location(|i, _, v| DualVec64::new(v, Derivative::derivative_generic(md, U1, i)));
-        let pd: Vec<DualVec64<M>> = self
-            .params
-            .iter()
-            .map(|&v| DualVec64::new(v, Derivative::none()))
-            .collect();
+        let pd = constants::<M>(&self.params);
         let r = (self.g)(t, &xd, u, &pd);
-        if r.len() != n {
-            jac.fill(f64::NAN);
-            return;
-        }
-        for i in 0..n {
-            match &r[i].eps.0 {
-                Some(e) => {
-                    for j in 0..n {
-                        jac[(i, j)] = e[j];
-                    }
-                }
-                None => {
-                    for j in 0..n {
-                        jac[(i, j)] = 0.0;
-                    }
-                }
-            }
-        }
+        // row i of J is the first n derivative parts of f_i: column-major as write_eps writes
+        crate::sensitivity::write_eps(&r, n, n, jac.as_mut_slice());
     }
     fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
         self.dt.time_derivative(t, x, u, dfdt)
@@ -178,11 +158,7 @@ where
                 .map(|e| OVector::<f64, M>::from_fn_generic(md, U1, |k, _| if k < n { e[k] } else { 0.0 }));
             DualVec64::new(v.re, Derivative::new(eps))
         });
-        let pd: Vec<DualVec64<M>> = self
-            .params
-            .iter()
-            .map(|&v| DualVec64::new(v, Derivative::none()))
-            .collect();
+        let pd = constants::<M>(&self.params);
         let r = (self.g)(t, &xd, u, &pd);
         let (rn, _) = x.shape_generic();
         r.map(|v| {
@@ -245,3 +221,11 @@ where
 /// ```
 #[doc(hidden)]
 pub struct ParamBlockChecks;
+
+/// The parameters as dual constants (no derivative part): `p` held fixed.
+fn constants<M: Dim>(p: &[f64]) -> Vec<DualVec64<M>>
+where
+    DefaultAllocator: Allocator<M>,
+{
+    p.iter().map(|&v| DualVec64::new(v, Derivative::none())).collect()
+}

@@ -657,14 +657,7 @@ macro_rules! model {
                   $u: &[f64],
                   $p: &[f64]|
                   -> $crate::nalgebra::SVector<f64, { $n }> {
-                #[allow(unused_imports)]
-                use $crate::num_dual::DualNum as _;
-                #[allow(unused_imports)]
-                use $crate::__private::Signed as _;
-                #[allow(dead_code)]
-                type $s = f64;
-                $crate::model!(@tlet $mode, $t, $s, __t);
-                $crate::__private::lift_literals!($crate, $body)
+                $crate::model!(@body $mode, $t, __t, $s, f64, $body)
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
@@ -672,14 +665,7 @@ macro_rules! model {
                   $u: &[f64],
                   $p: &[$crate::num_dual::DualSVec64<{ $n + $np }>]|
                   -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n + $np }>, { $n }> {
-                #[allow(unused_imports)]
-                use $crate::num_dual::DualNum as _;
-                #[allow(unused_imports)]
-                use $crate::__private::Signed as _;
-                #[allow(dead_code)]
-                type $s = $crate::num_dual::DualSVec64<{ $n + $np }>;
-                $crate::model!(@tlet $mode, $t, $s, __t);
-                $crate::__private::lift_literals!($crate, $body)
+                $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualSVec64<{ $n + $np }>, $body)
             },
         ))
     }};
@@ -690,14 +676,7 @@ macro_rules! model {
             &__pv,
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64, $x: &$crate::nalgebra::DVector<f64>, $u: &[f64], $p: &[f64]| -> $crate::nalgebra::DVector<f64> {
-                #[allow(unused_imports)]
-                use $crate::num_dual::DualNum as _;
-                #[allow(unused_imports)]
-                use $crate::__private::Signed as _;
-                #[allow(dead_code)]
-                type $s = f64;
-                $crate::model!(@tlet $mode, $t, $s, __t);
-                $crate::__private::lift_literals!($crate, $body)
+                $crate::model!(@body $mode, $t, __t, $s, f64, $body)
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
@@ -705,14 +684,7 @@ macro_rules! model {
                   $u: &[f64],
                   $p: &[$crate::num_dual::DualDVec64]|
                   -> $crate::nalgebra::DVector<$crate::num_dual::DualDVec64> {
-                #[allow(unused_imports)]
-                use $crate::num_dual::DualNum as _;
-                #[allow(unused_imports)]
-                use $crate::__private::Signed as _;
-                #[allow(dead_code)]
-                type $s = $crate::num_dual::DualDVec64;
-                $crate::model!(@tlet $mode, $t, $s, __t);
-                $crate::__private::lift_literals!($crate, $body)
+                $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualDVec64, $body)
             },
         ))
     }};
@@ -755,6 +727,17 @@ macro_rules! model {
     (|$t:tt, $x:ident : [$s:ident; $n:expr], $u:tt : [$m:expr]| $body:expr) => {
         $crate::model!(@fixed plain, $m, $n, $t, $x, $s, $u, $body)
     };
+    // one copy of the body at scalar `$ty` (named `$s` inside), with t as `$tv` sees it
+    (@body $mode:ident, $t:tt, $tv:ident, $s:ident, $ty:ty, $body:expr) => {{
+        #[allow(unused_imports)]
+        use $crate::num_dual::DualNum as _;
+        #[allow(unused_imports)]
+        use $crate::__private::Signed as _;
+        #[allow(dead_code)]
+        type $s = $ty;
+        $crate::model!(@tlet $mode, $t, $s, $tv);
+        $crate::__private::lift_literals!($crate, $body)
+    }};
     // how the body sees t: an f64 (plain, auto) or the scalar S (typed)
     (@tlet plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
     (@tlet auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
@@ -835,28 +818,14 @@ macro_rules! model {
                   $x: &$crate::nalgebra::SVector<f64, { $n }>,
                   $u: &[f64]|
                   -> $crate::nalgebra::SVector<f64, { $n }> {
-                #[allow(unused_imports)]
-                use $crate::num_dual::DualNum as _;
-                #[allow(unused_imports)]
-                use $crate::__private::Signed as _;
-                #[allow(dead_code)]
-                type $s = f64;
-                $crate::model!(@tlet $mode, $t, $s, __t);
-                $crate::__private::lift_literals!($crate, $body)
+                $crate::model!(@body $mode, $t, __t, $s, f64, $body)
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
                   $x: &$crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n }>, { $n }>,
                   $u: &[f64]|
                   -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n }>, { $n }> {
-                #[allow(unused_imports)]
-                use $crate::num_dual::DualNum as _;
-                #[allow(unused_imports)]
-                use $crate::__private::Signed as _;
-                #[allow(dead_code)]
-                type $s = $crate::num_dual::DualSVec64<{ $n }>;
-                $crate::model!(@tlet $mode, $t, $s, __t);
-                $crate::__private::lift_literals!($crate, $body)
+                $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualSVec64<{ $n }>, $body)
             },
         ).with_trace($crate::model!(@trace $mode, $crate::nalgebra::SVector<$crate::symbolic::Sym, { $n }>, $t, $x, $s, $u, $body)),
         fixed, $n, $t, $x, $s, $u, $body)
@@ -866,28 +835,14 @@ macro_rules! model {
             $m,
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64, $x: &$crate::nalgebra::DVector<f64>, $u: &[f64]| -> $crate::nalgebra::DVector<f64> {
-                #[allow(unused_imports)]
-                use $crate::num_dual::DualNum as _;
-                #[allow(unused_imports)]
-                use $crate::__private::Signed as _;
-                #[allow(dead_code)]
-                type $s = f64;
-                $crate::model!(@tlet $mode, $t, $s, __t);
-                $crate::__private::lift_literals!($crate, $body)
+                $crate::model!(@body $mode, $t, __t, $s, f64, $body)
             },
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
                   $x: &$crate::nalgebra::DVector<$crate::num_dual::DualDVec64>,
                   $u: &[f64]|
                   -> $crate::nalgebra::DVector<$crate::num_dual::DualDVec64> {
-                #[allow(unused_imports)]
-                use $crate::num_dual::DualNum as _;
-                #[allow(unused_imports)]
-                use $crate::__private::Signed as _;
-                #[allow(dead_code)]
-                type $s = $crate::num_dual::DualDVec64;
-                $crate::model!(@tlet $mode, $t, $s, __t);
-                $crate::__private::lift_literals!($crate, $body)
+                $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualDVec64, $body)
             },
         ).with_trace($crate::model!(@trace $mode, $crate::nalgebra::DVector<$crate::symbolic::Sym>, $t, $x, $s, $u, $body)),
         dyn, $t, $x, $s, $u, $body)

@@ -9,28 +9,17 @@ use nalgebra::vector;
 use reckon::calibration::lsq::diff_drive;
 use reckon::methods::{Dopri5, ImplicitEuler};
 use reckon::sensitivity::{self, SensitivityOptions};
-use reckon::{Controls, Options, Problem, model};
+use reckon::{Options, Problem, model};
+
+#[path = "../tests/common/drives.rs"]
+mod drives;
 use std::hint::black_box;
 use std::time::Duration;
-
-fn drive() -> Controls {
-    let pattern = [
-        (10.0, 10.0),
-        (6.0, 12.0),
-        (12.0, 12.0),
-        (12.0, 5.0),
-        (-4.0, 4.0),
-        (8.0, 9.0),
-    ];
-    let t: Vec<f64> = (0..30).map(|k| 2.0 * k as f64).collect();
-    let u = (0..30).map(|k| vec![pattern[k % 6].0, pattern[k % 6].1]).collect();
-    Controls::new(t, u).unwrap()
-}
 
 fn bench(c: &mut Criterion) {
     let so = SensitivityOptions::default();
     let dd = diff_drive(&[0.0502, 0.0497, 0.405]).unwrap();
-    let p = Problem::new(&dd, vector![0.0, 0.0, 0.0], (0.0, 60.0)).controls(drive());
+    let p = Problem::new(&dd, vector![0.0, 0.0, 0.0], (0.0, 60.0)).controls(drives::wheel_speed_log());
     let vdp = model!(|_, x: [S; 2], p: [S; 1] = [1.5]| vector![x[1], p[0] * (1.0 - x[0] * x[0]) * x[1] - x[0]]);
     let q = Problem::new(&vdp, vector![2.0, 0.0], (0.0, 10.0));
     let rk = Options::default().rtol(1e-8).atol(1e-10);

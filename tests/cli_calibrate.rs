@@ -1,9 +1,8 @@
 //! `reckon calibrate` on a simulated encoder log with known geometry errors.
 
-use nalgebra::Vector3;
-use reckon::reckoning::drift::square;
-use reckon::reckoning::encoders::DiffDrive;
-use reckon::reckoning::errors::{EncoderErrors, simulate};
+#[path = "common/drives.rs"]
+mod drives;
+
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -11,16 +10,7 @@ use std::process::Command;
 fn logs(tag: &str) -> (PathBuf, PathBuf) {
     let d = std::env::temp_dir().join(format!("reckon-calibrate-{}-{tag}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
-    let robot = DiffDrive::new(0.1, 0.5, 2048.0).unwrap();
-    let e = EncoderErrors {
-        left_scale: 1.004,
-        right_scale: 0.997,
-        wheelbase_scale: 1.02,
-        ..Default::default()
-    };
-    let mut cmds = square(3.0, true, 0.5, 0.8);
-    cmds.extend(square(3.0, false, 0.5, 0.8));
-    let run = simulate(&robot, &e, &cmds, 0.05, Vector3::zeros());
+    let run = drives::square_log();
     let (mut enc, mut pos) = (String::from("t,left,right\n"), String::from("t,x,y,theta\n"));
     for (k, (s, p)) in run.samples.iter().zip(&run.truth).enumerate() {
         writeln!(enc, "{:?},{:?},{:?}", s.0, s.1, s.2).unwrap();

@@ -160,6 +160,16 @@ pub enum Error {
         /// What the optimiser reported.
         reason: String,
     },
+    /// A member of an ensemble failed (the lowest-numbered one that did).
+    #[error("ensemble member {index} (seed {seed}): {reason}")]
+    EnsembleMember {
+        /// The member's index in the whole ensemble.
+        index: u64,
+        /// Its seed ([`member_seed`](crate::ensemble::member_seed)).
+        seed: u64,
+        /// What went wrong.
+        reason: Box<Error>,
+    },
     /// An event function returned NaN, so whether it changed sign is unknown (a pole,
     /// where it jumps through ±∞, is a sign change; NaN is not).
     #[error("event function {index} is NaN at t = {}", Brief(*.t))]

@@ -10,6 +10,7 @@ pub mod calibration;
 pub mod cli;
 pub mod control;
 pub mod controls;
+pub mod ensemble;
 pub mod error;
 pub mod events;
 pub mod integrator;

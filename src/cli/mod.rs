@@ -5,6 +5,7 @@
 pub mod calibrate;
 pub mod csvio;
 pub mod demo;
+pub mod ensemble;
 pub mod jacobian;
 pub mod odometry;
 pub mod plot;
@@ -56,6 +57,9 @@ pub enum Command {
     /// Calibrate a differential drive's wheel radii and wheel base from an encoder log
     /// and measured poses (least squares through the model, or Censi et al. 2013).
     Calibrate(calibrate::CalibrateArgs),
+    /// Monte-Carlo ensemble of noisy encoder robots on every core (`--shard K/N` for
+    /// batch schedulers, `ensemble merge` to combine shards exactly).
+    Ensemble(Box<ensemble::EnsembleCmd>),
 }
 
 /// Parse `argv` (program name first) and run the command. `Err` carries clap's own
@@ -90,5 +94,6 @@ pub fn dispatch(args: Args) -> Result<(), Box<dyn std::error::Error>> {
         Command::WorkPrecision(a) => studies::work_precision(&a),
         Command::Jacobian(a) => jacobian::run(&a),
         Command::Calibrate(a) => calibrate::run(&a),
+        Command::Ensemble(a) => ensemble::run(&a),
     }
 }

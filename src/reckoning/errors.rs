@@ -83,45 +83,88 @@ pub fn simulate(
     dt: f64,
     start: Vector3<f64>,
 ) -> EncoderRun {
-    let mut rng = StdRng::seed_from_u64(e.seed);
-    let unit = Normal::new(0.0, 1.0).expect("unit normal");
-    let k = robot.distance_per_pulse();
-    let b = robot.wheel_separation;
-    let b_true = b * e.wheelbase_scale;
-    let (mut carry_l, mut carry_r) = (0.0, 0.0);
-    let mut pose = start;
+    let mut sim = Simulator::new(robot, e, start, StdRng::seed_from_u64(e.seed));
     let mut t_seg = 0.0;
     let mut run = EncoderRun {
         samples: vec![(0.0, 0.0, 0.0)],
-        truth: vec![pose],
+        truth: vec![start],
     };
     for c in commands {
-        let n = (c.duration / dt).round().max(1.0) as u64;
-        let h = c.duration / n as f64;
+        let (n, h) = samples_of(c, dt);
         for j in 1..=n {
-            // commanded wheel travel with the nominal geometry → wheel rotation in pulses
-            let pl = (c.v - 0.5 * c.omega * b) * h / k;
-            let pr = (c.v + 0.5 * c.omega * b) * h / k;
-            // counted pulses: noise, then quantisation with carried remainder
-            let (mut nl, mut nr) = (
-                pl + e.pulse_noise * unit.sample(&mut rng),
-                pr + e.pulse_noise * unit.sample(&mut rng),
-            );
-            if e.quantize {
-                let (ql, qr) = ((nl + carry_l).trunc(), (nr + carry_r).trunc());
-                carry_l += nl - ql;
-                carry_r += nr - qr;
-                (nl, nr) = (ql, qr);
-            }
-            // true ground travel: true diameters, slip
-            let slip = |rng: &mut StdRng| 1.0 - (e.slip_sigma * unit.sample(rng)).abs();
-            let dl = pl * k * e.left_scale * slip(&mut rng);
-            let dr = pr * k * e.right_scale * slip(&mut rng);
-            pose = advance(&pose, 0.5 * (dl + dr), (dr - dl) / b_true, Update::Exact);
+            let (nl, nr) = sim.sample(c.v, c.omega, h);
             run.samples.push((t_seg + j as f64 * h, nl, nr));
-            run.truth.push(pose);
+            run.truth.push(sim.pose);
         }
         t_seg += c.duration;
     }
     run
+}
+
+/// Samples of a command at period `dt`: `n = max(1, round(duration/dt))` of length
+/// `h = duration/n`.
+pub fn samples_of(c: &Command, dt: f64) -> (u64, f64) {
+    let n = (c.duration / dt).round().max(1.0) as u64;
+    (n, c.duration / n as f64)
+}
+
+/// The encoder robot one sample at a time: [`simulate`] without storing, for long runs
+/// and ensembles. Each sample draws from the generator given: the left then right pulse
+/// noise if `pulse_noise ≠ 0`, then the left then right slip if `slip_sigma ≠ 0`.
+#[derive(Debug, Clone)]
+pub struct Simulator<'a> {
+    robot: &'a DiffDrive,
+    e: &'a EncoderErrors,
+    rng: StdRng,
+    unit: Normal<f64>,
+    carry: (f64, f64),
+    /// The true pose.
+    pub pose: Vector3<f64>,
+}
+
+impl<'a> Simulator<'a> {
+    /// At true pose `start`, drawing noise from `rng` (`e.seed` is not used).
+    pub fn new(robot: &'a DiffDrive, e: &'a EncoderErrors, start: Vector3<f64>, rng: StdRng) -> Self {
+        Simulator {
+            robot,
+            e,
+            rng,
+            unit: Normal::new(0.0, 1.0).expect("unit normal"),
+            carry: (0.0, 0.0),
+            pose: start,
+        }
+    }
+
+    /// Drive `(v, ω)` for `h`: returns the counted pulses `(n_l, n_r)` and moves the true pose.
+    pub fn sample(&mut self, v: f64, omega: f64, h: f64) -> (f64, f64) {
+        let (e, k, b) = (self.e, self.robot.distance_per_pulse(), self.robot.wheel_separation);
+        // commanded wheel travel with the nominal geometry → wheel rotation in pulses
+        let pl = (v - 0.5 * omega * b) * h / k;
+        let pr = (v + 0.5 * omega * b) * h / k;
+        // counted pulses: noise, then quantisation with carried remainder
+        let (mut nl, mut nr) = (pl, pr);
+        if e.pulse_noise != 0.0 {
+            nl += e.pulse_noise * self.unit.sample(&mut self.rng);
+            nr += e.pulse_noise * self.unit.sample(&mut self.rng);
+        }
+        if e.quantize {
+            let (ql, qr) = ((nl + self.carry.0).trunc(), (nr + self.carry.1).trunc());
+            self.carry.0 += nl - ql;
+            self.carry.1 += nr - qr;
+            (nl, nr) = (ql, qr);
+        }
+        // true ground travel: true diameters, slip
+        let (mut dl, mut dr) = (pl * k * e.left_scale, pr * k * e.right_scale);
+        if e.slip_sigma != 0.0 {
+            dl *= 1.0 - (e.slip_sigma * self.unit.sample(&mut self.rng)).abs();
+            dr *= 1.0 - (e.slip_sigma * self.unit.sample(&mut self.rng)).abs();
+        }
+        self.pose = advance(
+            &self.pose,
+            0.5 * (dl + dr),
+            (dr - dl) / (b * e.wheelbase_scale),
+            Update::Exact,
+        );
+        (nl, nr)
+    }
 }

@@ -22,6 +22,7 @@ use std::path::Path;
 
 type Res<T = ()> = Result<T, Box<dyn Error>>;
 
+mod ensembles;
 mod pitfalls;
 mod symbolic;
 use pitfalls::pitfalls;
@@ -497,6 +498,8 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         before.e_max_syst() / after.e_max_syst()
     );
     r.end();
+
+    ensembles::section(&mut r, dir, fast)?;
 
     // drift against distance
     r.section("Odometry drift against distance", "Straight runs of 1, 2, 5 and 10 m: a 1° heading error gives 1.745% lateral drift (0.1745 m after 10 m); a 0.1% wheel-diameter mismatch curves the path, so its lateral error grows with the square of the distance; slip and pulse noise (seeded) add a random part.");

@@ -20,6 +20,10 @@ pub enum Method {
     /// Censi et al. 2013: each interval between consecutive poses gives a displacement
     /// (the poses are the sensor's, so its pose on the robot is estimated too).
     Censi,
+    /// Borenstein & Feng's UMBmark: the poses come in pairs, the measured start and end
+    /// of each square run (clockwise or counter-clockwise, told by the odometry's turn);
+    /// gives E_d and E_b from the return errors.
+    Umbmark,
 }
 
 /// Arguments of `reckon calibrate`.
@@ -29,8 +33,11 @@ pub enum Method {
 pulse increments since the previous row). The poses CSV has header t,x,y,theta (metres, \
 radians, the same clock). The first pose at or after the first encoder row is the start; \
 the corrected odometry is dead-reckoned from it with the calibrated geometry (exact arcs) \
-and written as t,x,y,theta. UMBmark works on square runs, not logs: use \
-reckon::calibration::umbmark from Rust."
+and written as t,x,y,theta. With --method umbmark the poses are two rows per run, its \
+measured start and end; each run is dead-reckoned from its start, its return error \
+(truth − odometry, in the frame of the start pose) enters Borenstein & Feng's formulas \
+with the side length L = the run's odometry path length / 4, and a run whose odometry \
+does not turn about ±360° is an error."
 )]
 pub struct CalibrateArgs {
     /// Encoders CSV: header t,left,right (pulse increments).
@@ -101,6 +108,20 @@ pub fn run(args: &CalibrateArgs) -> Result<(), Box<dyn Error>> {
             let text = lines(&f.estimate, "");
             (f.params.r_l, f.params.r_r, f.params.b, text)
         }
+        Method::Umbmark => {
+            let f = umbmark_runs(&samples, &poses, &robot)?;
+            let mut text = lines(&f.estimate, "");
+            let (dl, dr) = f.wheel_diameters(robot.wheel_diameter);
+            let b = f.wheelbase(robot.wheel_separation);
+            text.push(format!(
+                "E_max,syst = {} m; corrected: D_L = {} m, D_R = {} m, b = {} m",
+                num(f.e_max_syst()),
+                num(dl),
+                num(dr),
+                num(b)
+            ));
+            (0.5 * dl, 0.5 * dr, b, text)
+        }
     };
     let mut err = std::io::stderr();
     let mut to_stdout = std::io::stdout();
@@ -128,6 +149,59 @@ fn lines(e: &crate::calibration::Estimate, unit: &str) -> Vec<String> {
     (0..e.value.len())
         .map(|i| format!("{} = {} ± {}{unit}", e.names[i], num(e.value[i]), num(sd[i])))
         .collect()
+}
+
+/// UMBmark from a log: runs between pose pairs, their return errors in the start frame.
+fn umbmark_runs(
+    samples: &[(f64, f64, f64)],
+    poses: &[(f64, Vector3<f64>)],
+    robot: &crate::reckoning::encoders::DiffDrive,
+) -> Result<crate::calibration::umbmark::UmbmarkFit, Box<dyn Error>> {
+    if poses.len() % 2 != 0 {
+        return Err(format!(
+            "umbmark: the poses come in pairs (start and end of each run), got {} rows",
+            poses.len()
+        )
+        .into());
+    }
+    let (mut cw, mut ccw, mut sides) = (Vec::new(), Vec::new(), Vec::new());
+    for (i, pair) in poses.chunks_exact(2).enumerate() {
+        let ((ta, a), (tb, end)) = (pair[0], pair[1]);
+        let mut odo = a;
+        let mut path = 0.0;
+        for s in samples.iter().filter(|s| s.0 > ta && s.0 <= tb) {
+            let (ds, dth) = robot.increments(s.1, s.2);
+            odo = advance(&odo, ds, dth, Update::Exact);
+            path += ds.abs();
+        }
+        let turn = odo[2] - a[2];
+        if !(turn.abs() > 1.5 * std::f64::consts::PI && turn.abs() < 2.5 * std::f64::consts::PI) {
+            return Err(format!(
+                "umbmark: run {} (t = {} to {}) turns {}° by odometry; a UMBmark run is a square, ±360°",
+                i + 1,
+                num(ta),
+                num(tb),
+                num(turn.to_degrees())
+            )
+            .into());
+        }
+        let (s, c) = a[2].sin_cos();
+        let d = end.xy() - odo.xy();
+        let eps = nalgebra::Vector2::new(c * d[0] + s * d[1], -s * d[0] + c * d[1]);
+        if turn > 0.0 {
+            ccw.push(eps)
+        } else {
+            cw.push(eps)
+        }
+        sides.push(path / 4.0);
+    }
+    let side = sides.iter().sum::<f64>() / sides.len() as f64;
+    Ok(crate::calibration::umbmark::calibrate(
+        &cw,
+        &ccw,
+        side,
+        robot.wheel_separation,
+    )?)
 }
 
 /// Intervals between consecutive poses: the wheel rotations of the encoder rows inside,

@@ -188,11 +188,15 @@ impl MethodStyle {
 }
 
 /// Colours of series that are not methods (none of the method colours).
-const OTHERS: [RGBColor; 4] = [
+const OTHERS: [RGBColor; 8] = [
     RGBColor(255, 127, 14),
     RGBColor(23, 190, 207),
     RGBColor(188, 189, 34),
     RGBColor(127, 127, 127),
+    RGBColor(0, 95, 115),
+    RGBColor(255, 187, 120),
+    RGBColor(0, 0, 128),
+    RGBColor(128, 128, 0),
 ];
 
 /// Font sizes as given to plotters; its SVG backend writes `size / 1.24` px, so 17 is 13.7 px.

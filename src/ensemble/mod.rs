@@ -388,7 +388,8 @@ impl Ensemble {
             .map_err(|_| Error::invalid("members", format!("{count} members per shard is too many")))?;
         let done = (0..count)
             .into_par_iter()
-            .with_min_len(16)
+            // a few pieces per thread: each piece has its own accumulators, merged at the end
+            .with_min_len((count / (8 * rayon::current_num_threads())).max(16))
             .fold(fresh, |mut acc, j| {
                 let index = self.shard.index + j as u64 * self.shard.count;
                 if index > first_failure.load(Ordering::Relaxed) {

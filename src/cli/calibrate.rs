@@ -157,7 +157,7 @@ fn umbmark_runs(
     poses: &[(f64, Vector3<f64>)],
     robot: &crate::reckoning::encoders::DiffDrive,
 ) -> Result<crate::calibration::umbmark::UmbmarkFit, Box<dyn Error>> {
-    if poses.len() % 2 != 0 {
+    if !poses.len().is_multiple_of(2) {
         return Err(format!(
             "umbmark: the poses come in pairs (start and end of each run), got {} rows",
             poses.len()

@@ -95,13 +95,7 @@ impl Controls {
         let n = self.times.len();
         // interval `c` is the one in force at `t`: the answer is unique, so checking a
         // candidate gives the binary search's result
-        let holds = |c: usize| {
-            if dir >= 0.0 {
-                self.times[c] <= t && (c + 1 == n || t < self.times[c + 1])
-            } else {
-                self.times[c] < t && (c + 1 == n || t <= self.times[c + 1])
-            }
-        };
+        let holds = |c: usize| self.holds(c, t, dir);
         if let Some(h) = hint {
             let next = if dir >= 0.0 { h.checked_add(1) } else { h.checked_sub(1) };
             for c in [next, Some(h)].into_iter().flatten() {
@@ -111,6 +105,24 @@ impl Controls {
             }
         }
         self.segment_search(t, dir)
+    }
+
+    /// Whether interval `c` (which must exist) is the one in force at `t` going in
+    /// direction `dir`: `t_c ≤ t < t_{c+1}` forwards, `t_c < t ≤ t_{c+1}` backwards.
+    #[inline(always)]
+    pub(crate) fn holds(&self, c: usize, t: f64, dir: f64) -> bool {
+        let n = self.times.len();
+        if dir >= 0.0 {
+            self.times[c] <= t && (c + 1 == n || t < self.times[c + 1])
+        } else {
+            self.times[c] < t && (c + 1 == n || t <= self.times[c + 1])
+        }
+    }
+
+    /// Number of intervals.
+    #[inline(always)]
+    pub(crate) fn intervals(&self) -> usize {
+        self.times.len()
     }
 
     fn segment_search(&self, t: f64, dir: f64) -> Option<usize> {

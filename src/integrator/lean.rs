@@ -128,3 +128,152 @@ where
         }
     }
 }
+
+impl<D: Dim, S: System<D>, M: Method<D>> Integrator<'_, '_, D, S, M>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Whether [`run_lean_fixed`](Self::run_lean_fixed) applies: a fixed-step run (or
+    /// an exact flow, one step per interval) of a method that never retries a step, with
+    /// nothing to stop for but the breakpoints and `t_end`.
+    pub(super) fn is_lean_fixed(&self) -> bool {
+        !self.adaptive
+            && !self.done
+            && !self.keep_dense
+            && self.problem.events.is_empty()
+            && self.until.is_none()
+            && self.sub_h.is_none()
+            && self.t_end.is_finite()
+            && self.method.never_retries()
+    }
+
+    /// Step to `t_end` through every breakpoint and control time, pushing every step:
+    /// the steps, times, input switches, counters and errors of [`step`](Self::step),
+    /// bit for bit, with the time, the next stop, the grid index and the counters in
+    /// locals (what `enter_segment` and `arrive` do, written out).
+    pub(super) fn run_lean_fixed(&mut self, mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
+        let t0 = self.problem.t0;
+        let (dir, fixed_h, max_steps) = (self.dir, self.fixed_h, self.max_steps);
+        let controls = self.problem.controls.as_ref();
+        let (mut t, mut tau, mut attempts) = (self.t, self.tau, self.attempts);
+        let (mut stop_idx, mut grid_k) = (self.stop_idx, self.grid_k);
+        let mut accepted = 0u64;
+        let n_stops = self.stops.len();
+        macro_rules! sync {
+            () => {
+                self.t = t;
+                self.tau = tau;
+                self.attempts = attempts;
+                self.stop_idx = stop_idx;
+                self.grid_k = grid_k;
+                self.f.stats.accepted += std::mem::take(&mut accepted);
+            };
+        }
+        let mut stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);
+        let mut stop_tau = stop - t0;
+        loop {
+            if attempts >= max_steps {
+                sync!();
+                return Err(Error::MaxSteps { t, steps: attempts });
+            }
+            // `next_h` for a fixed step: the next grid point, or the stop when it is closer
+            let grid = (grid_k + 1) as f64 * dir * fixed_h;
+            let (target, target_tau) = if dir * (grid - stop_tau) >= -1e-10 * fixed_h {
+                (stop, stop_tau)
+            } else {
+                (t0 + grid, grid)
+            };
+            let h = target_tau - tau;
+            if h == 0.0 {
+                // two stops closer than t − t0 resolves: the general path lands without a step
+                sync!();
+                self.land_without_step(stop);
+                keep(self.t, &self.x);
+                if self.done {
+                    return Ok(());
+                }
+                (t, attempts, stop_idx) = (self.t, self.attempts, self.stop_idx);
+                stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);
+                stop_tau = stop - t0;
+                continue;
+            }
+            if !(h.abs() > 0.0 && h.abs() < f64::INFINITY) {
+                sync!();
+                return Err(self.underflow(h, 0));
+            }
+            attempts += 1;
+            let outcome = self
+                .method
+                .step(&mut self.f, t, &self.x, h, &mut self.x_new, &self.w, false);
+            let err = match outcome {
+                Ok(Outcome::Done { err }) => err,
+                // never_retries: a retry is a method's own error
+                Ok(Outcome::Retry(why)) => {
+                    sync!();
+                    return Err(self.failure_error(why, h));
+                }
+                Err(e) => {
+                    sync!();
+                    return Err(e);
+                }
+            };
+            if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
+                sync!();
+                return Err(self.non_finite(h));
+            }
+            accepted += 1;
+            self.method.accept();
+            if let Some(to) = self.method.switched() {
+                self.switches.push(super::Switch { t: target, to });
+            }
+            std::mem::swap(&mut self.x, &mut self.x_new);
+            t = target;
+            tau = target_tau;
+            if target_tau == grid || (target_tau - grid).abs() <= 1e-10 * fixed_h {
+                grid_k += 1;
+            }
+            if target == stop {
+                // `arrive`: the next stop, the inputs of the interval it opens
+                attempts = 0;
+                stop_idx += 1;
+                if stop_idx > n_stops {
+                    sync!();
+                    self.done = true;
+                    keep(t, &self.x);
+                    return Ok(());
+                }
+                if let Some(c) = controls {
+                    // the next interval first (a log's stops are its times), inline
+                    let next = match self.segment {
+                        Some(k) if dir >= 0.0 => Some(k + 1),
+                        Some(k) => k.checked_sub(1),
+                        None => None,
+                    };
+                    let k = match next {
+                        Some(k) if k < c.intervals() && c.holds(k, t, dir) => Some(k),
+                        _ => c.segment_near(t, dir, self.segment),
+                    };
+                    if let Some(k) = k
+                        && Some(k) != self.segment
+                    {
+                        self.segment = Some(k);
+                        let v = c.values(k).unwrap_or_default();
+                        if v.len() == self.f.u.len() {
+                            // element by element: no memcpy call for two or three inputs
+                            for (d, s) in self.f.u.iter_mut().zip(v) {
+                                *d = *s;
+                            }
+                        } else {
+                            self.f.u.clear();
+                            self.f.u.extend_from_slice(v);
+                        }
+                    }
+                }
+                self.method.reset();
+                stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);
+                stop_tau = stop - t0;
+            }
+            keep(t, &self.x);
+        }
+    }
+}

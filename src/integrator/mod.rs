@@ -671,6 +671,12 @@ where
             } else {
                 self.run_lean(|t, x| out.step(t, x, None))?;
             }
+        } else if self.is_lean_fixed() {
+            if out.every_step() {
+                self.run_lean_fixed(|t, x| out.push(t, x))?;
+            } else {
+                self.run_lean_fixed(|t, x| out.step(t, x, None))?;
+            }
         }
         while self.step()?.is_some() {
             let (t0, h, t1) = self.last_step;

@@ -72,6 +72,9 @@ where
     fn error_order(&self) -> Option<u32> {
         None
     }
+    fn never_retries(&self) -> bool {
+        true
+    }
     fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, _x0: &OVector<f64, D>) -> Result<()> {
         Ok(())
     }

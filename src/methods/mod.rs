@@ -99,6 +99,11 @@ where
     fn accept(&mut self) {}
     /// The inputs jumped at a breakpoint: drop anything carried over from the last step.
     fn reset(&mut self) {}
+    /// Whether [`step`](Method::step) never returns [`Outcome::Retry`] (explicit
+    /// formulas and exact flows), so that a fixed-step run needs no retry logic.
+    fn never_retries(&self) -> bool {
+        false
+    }
     /// Number of coefficients of the dense polynomial `x(t + θh) = Σ_j c_j θʲ`.
     fn dense_len(&self) -> usize {
         2

@@ -1,0 +1,164 @@
+//! The fixed-step fast path of `solve` (exact flows and explicit Euler with nothing to
+//! stop for but breakpoints) against the general path (the same run with an event that
+//! never fires, and the step-by-step integrator) and a bare loop, on a 10⁴-interval log:
+//! every stored step bit for bit, breakpoints landed exactly, inputs switched on time.
+
+use nalgebra::{Vector3, vector};
+use reckon::methods::{Exact, ExplicitEuler, Method};
+use reckon::models::unicycle;
+use reckon::{Controls, Error, Event, Options, Problem, Save, Solution};
+
+const N: usize = 10_000;
+
+/// Irregular control times (no step divides them) and inputs that change every interval.
+fn log(t0: f64) -> Controls {
+    let times: Vec<f64> = (0..N)
+        .map(|k| t0 + k as f64 * 0.01 + 0.003 * ((k * 7919) % 13) as f64 / 13.0)
+        .collect();
+    let values = (0..N)
+        .map(|k| vec![1.0 + 0.5 * (k as f64 * 1e-2).sin(), 0.8 * (k as f64 * 7e-3).cos()])
+        .collect();
+    Controls::new(times, values).unwrap()
+}
+
+type Sys = reckon::nalgebra::Const<3>;
+type Run = (Solution<Sys>, Solution<Sys>, Vec<(f64, Vector3<f64>)>);
+
+/// The fast path, the general path (an event that never fires) and `step()` one by one.
+fn both<S: reckon::System<Sys> + Copy, M: Method<Sys> + Clone>(
+    p: &Problem<'_, Sys, S>,
+    method: M,
+    opts: &Options,
+) -> Run {
+    let fast = p.solve(method.clone(), opts).unwrap();
+    let general = {
+        let q = Problem::new(p.system, p.x0, (p.t0, p.t_end))
+            .controls(p.controls.clone().unwrap())
+            .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9));
+        q.solve(method.clone(), opts).unwrap()
+    };
+    let stepped: Vec<(f64, Vector3<f64>)> = {
+        let mut it = p.integrator(method, opts).unwrap();
+        let mut v = vec![(it.t(), *it.x())];
+        while let Some(t) = it.step().unwrap() {
+            v.push((t, *it.x()));
+        }
+        v
+    };
+    (fast, general, stepped)
+}
+
+fn same(a: &Solution<nalgebra::Const<3>>, b: &Solution<nalgebra::Const<3>>) {
+    assert_eq!(a.t.len(), b.t.len());
+    for k in 0..a.t.len() {
+        assert!(a.t[k].to_bits() == b.t[k].to_bits(), "t[{k}]: {} vs {}", a.t[k], b.t[k]);
+        for i in 0..3 {
+            assert!(a.x[k][i].to_bits() == b.x[k][i].to_bits(), "x[{k}][{i}]");
+        }
+    }
+    assert_eq!(a.stats.accepted, b.stats.accepted);
+}
+
+#[test]
+fn exact_flow_fast_path_equals_the_general_path_and_a_bare_loop() {
+    let c = log(0.0);
+    let t_end = c.times()[N - 1] + 0.01;
+    let sys = unicycle::model();
+    let p = Problem::new(&sys, vector![0.0, 0.0, 0.0], (0.0, t_end)).controls(c.clone());
+    let (fast, general, stepped) = both(&p, Exact::new(unicycle::flow), &Options::default());
+    same(&fast, &general);
+    assert_eq!(fast.t.len(), N + 1);
+    for (k, (t, x)) in stepped.iter().enumerate() {
+        assert!(fast.t[k] == *t && fast.x[k] == *x, "step {k}");
+    }
+    // every control time is a stored time, exactly, and the inputs switched there: the
+    // bare loop x ← φ(x, u_k, t_{k+1} − t_k) gives the same bits
+    let mut x = vector![0.0, 0.0, 0.0];
+    for k in 0..N {
+        assert_eq!(fast.t[k], c.times()[k]);
+        let next = if k + 1 < N { c.times()[k + 1] } else { t_end };
+        x = unicycle::flow(0.0, &x, c.values(k).unwrap(), next - c.times()[k]);
+        assert!(fast.x[k + 1] == x, "interval {k}");
+    }
+    // the other save modes keep the same states
+    for save in [Save::Every(7), Save::End] {
+        let o = Options::default().save(save.clone());
+        let (f, g, _) = both(&p, Exact::new(unicycle::flow), &o);
+        same(&f, &g);
+        assert_eq!(*f.last().1, *fast.last().1);
+    }
+    // an exact flow on a finer grid (0.004: grid points between the control times)
+    let o = Options::default().fixed(0.004).breakpoints([0.5, 12.345]);
+    let (f, g, s) = both(&p, Exact::new(unicycle::flow), &o);
+    same(&f, &g);
+    assert!(f.t.len() > 2 * N && f.t.contains(&12.345) && f.t.contains(&c.times()[5000]));
+    assert_eq!(s.len(), f.t.len());
+}
+
+#[test]
+fn fixed_step_euler_fast_path_equals_the_general_path() {
+    let c = log(0.0);
+    let t_end = c.times()[N - 1] + 0.01;
+    let sys = unicycle::model();
+    let p = Problem::new(&sys, vector![0.1, -0.2, 0.3], (0.0, t_end)).controls(c);
+    for h in [0.01, 0.0037, 1.0] {
+        let (f, g, s) = both(&p, ExplicitEuler, &Options::default().fixed(h));
+        same(&f, &g);
+        assert_eq!(s.len(), f.t.len());
+        assert!(s.iter().zip(&f.x).all(|(a, b)| a.1 == *b));
+    }
+}
+
+#[test]
+fn backwards_and_from_a_late_start_the_paths_agree() {
+    let c = log(100.0);
+    let sys = unicycle::model();
+    let (a, b) = (c.times()[0], c.times()[N - 1] + 0.01);
+    // backwards from the end of the log to its start
+    let p = Problem::new(&sys, vector![1.0, 2.0, 0.5], (b, a)).controls(c.clone());
+    let (f, g, _) = both(&p, Exact::new(unicycle::flow), &Options::default());
+    same(&f, &g);
+    assert_eq!(f.last().0, a);
+    // a span that starts inside an interval
+    let p = Problem::new(&sys, vector![0.0, 0.0, 0.0], (a + 12.3456, b)).controls(c);
+    let (f, g, _) = both(&p, ExplicitEuler, &Options::default().fixed(0.02));
+    same(&f, &g);
+}
+
+#[test]
+fn errors_on_the_fast_path_are_the_general_paths() {
+    let c = log(0.0);
+    let t_end = c.times()[N - 1] + 0.01;
+    let sys = unicycle::model();
+    // a flow that blows up in interval 5000
+    let bad_at = c.times()[5000];
+    let flow = move |t: f64, x: &Vector3<f64>, u: &[f64], h: f64| {
+        let y = unicycle::flow(t, x, u, h);
+        if t == bad_at { vector![f64::NAN, y[1], y[2]] } else { y }
+    };
+    let q = Problem::new(&sys, vector![0.0, 0.0, 0.0], (0.0, t_end)).controls(c.clone());
+    let fast = q.solve(Exact::new(flow), &Options::default()).unwrap_err();
+    let general = Problem::new(&sys, vector![0.0, 0.0, 0.0], (0.0, t_end))
+        .controls(c.clone())
+        .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9))
+        .solve(Exact::new(flow), &Options::default())
+        .unwrap_err();
+    assert_eq!(fast, general);
+    assert!(
+        matches!(fast, Error::NonFinite { t, .. } if t == c.times()[5001]),
+        "{fast}"
+    );
+    // the step limit per interval
+    let o = Options::default().fixed(1e-4).max_steps(50);
+    let fast = q.solve(ExplicitEuler, &o).unwrap_err();
+    let mut it = q.integrator(ExplicitEuler, &o).unwrap();
+    let general = loop {
+        match it.step() {
+            Ok(Some(_)) => {}
+            Ok(None) => panic!("no error"),
+            Err(e) => break e,
+        }
+    };
+    assert_eq!(fast, general);
+    assert!(matches!(fast, Error::MaxSteps { steps: 50, .. }), "{fast}");
+}

@@ -78,6 +78,7 @@ where
     fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, _x0: &OVector<f64, D>) -> Result<()> {
         Ok(())
     }
+    #[inline(always)]
     fn step<S: System<D>>(
         &mut self,
         f: &mut Eval<'_, D, S>,

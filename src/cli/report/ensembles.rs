@@ -21,13 +21,7 @@ const Z95: f64 = 1.959964;
 
 fn ellipse(p: &Matrix2<f64>, level: f64) -> Vec<(f64, f64)> {
     let (a, b, ang) = confidence_ellipse(p, level);
-    (0..=90)
-        .map(|k| {
-            let s = k as f64 / 90.0 * std::f64::consts::TAU;
-            let (u, w) = (a * s.cos(), b * s.sin());
-            (u * ang.cos() - w * ang.sin(), u * ang.sin() + w * ang.cos())
-        })
-        .collect()
+    super::ellipse((0.0, 0.0), a, b, ang)
 }
 
 fn block2(c: &DMatrix<f64>) -> Matrix2<f64> {

@@ -68,6 +68,17 @@ impl Report {
     }
 }
 
+/// 91 points of the ellipse with centre `c`, semi-axes `a`, `b`, the first turned by `ang`.
+fn ellipse(c: (f64, f64), a: f64, b: f64, ang: f64) -> Vec<(f64, f64)> {
+    (0..=90)
+        .map(|k| {
+            let s = k as f64 / 90.0 * std::f64::consts::TAU;
+            let (u, w) = (a * s.cos(), b * s.sin());
+            (c.0 + u * ang.cos() - w * ang.sin(), c.1 + u * ang.sin() + w * ang.cos())
+        })
+        .collect()
+}
+
 fn xy<const N: usize>(sol: &Solution<nalgebra::Const<N>>) -> Vec<(f64, f64)> {
     sol.x.iter().map(|x| (x[0], x[1])).collect()
 }
@@ -325,15 +336,6 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     // scale, centred on each estimate's error, in the next figure
     const ENLARGE: f64 = 10.0;
     let chi2 = -2.0 * (1.0f64 - 0.9).ln();
-    let ellipse = |c: (f64, f64), a: f64, b: f64, ang: f64| -> Vec<(f64, f64)> {
-        (0..=90)
-            .map(|k| {
-                let s = k as f64 / 90.0 * std::f64::consts::TAU;
-                let (u, w) = (a * s.cos(), b * s.sin());
-                (c.0 + u * ang.cos() - w * ang.sin(), c.1 + u * ang.sin() + w * ang.cos())
-            })
-            .collect()
-    };
     let mut ellipses = Vec::new();
     let mut zoom = Plot::new(
         "SLAM: 90% ellipses at true scale, centred on each landmark's estimate error",

@@ -90,18 +90,23 @@ impl Controls {
     ///     }
     /// }
     /// ```
-    #[inline]
+    #[inline(always)]
     pub fn segment_near(&self, t: f64, dir: f64, hint: Option<usize>) -> Option<usize> {
         let n = self.times.len();
         // interval `c` is the one in force at `t`: the answer is unique, so checking a
         // candidate gives the binary search's result
         let holds = |c: usize| self.holds(c, t, dir);
         if let Some(h) = hint {
+            // the next interval, then the hinted one
             let next = if dir >= 0.0 { h.checked_add(1) } else { h.checked_sub(1) };
-            for c in [next, Some(h)].into_iter().flatten() {
-                if c < n && holds(c) {
-                    return Some(c);
-                }
+            if let Some(c) = next
+                && c < n
+                && holds(c)
+            {
+                return Some(c);
+            }
+            if h < n && holds(h) {
+                return Some(h);
             }
         }
         self.segment_search(t, dir)
@@ -110,7 +115,7 @@ impl Controls {
     /// Whether interval `c` (which must exist) is the one in force at `t` going in
     /// direction `dir`: `t_c ≤ t < t_{c+1}` forwards, `t_c < t ≤ t_{c+1}` backwards.
     #[inline(always)]
-    pub(crate) fn holds(&self, c: usize, t: f64, dir: f64) -> bool {
+    fn holds(&self, c: usize, t: f64, dir: f64) -> bool {
         let n = self.times.len();
         if dir >= 0.0 {
             self.times[c] <= t && (c + 1 == n || t < self.times[c + 1])
@@ -119,12 +124,9 @@ impl Controls {
         }
     }
 
-    /// Number of intervals.
-    #[inline(always)]
-    pub(crate) fn intervals(&self) -> usize {
-        self.times.len()
-    }
-
+    /// The binary search behind [`segment_near`](Self::segment_near), out of line so
+    /// that the check of the hinted intervals inlines into the driver's loop.
+    #[inline(never)]
     fn segment_search(&self, t: f64, dir: f64) -> Option<usize> {
         let k = if dir >= 0.0 {
             self.times.partition_point(|&tk| tk <= t)

@@ -896,6 +896,20 @@ where
         self.sys
     }
 
+    /// Hold the inputs `v` from now on: copied element by element when the count is
+    /// unchanged (a control log's rows: no allocation, no `memcpy` call per interval).
+    #[inline(always)]
+    pub(crate) fn hold(&mut self, v: &[f64]) {
+        if v.len() == self.u.len() {
+            for (d, s) in self.u.iter_mut().zip(v) {
+                *d = *s;
+            }
+        } else {
+            self.u.clear();
+            self.u.extend_from_slice(v);
+        }
+    }
+
     /// `dx ← f(t, x)`, counted but not checked: for explicit kernels whose step result
     /// the driver checks (and then asks [`Method::diagnose`](crate::methods::Method::diagnose) where it broke).
     #[inline(always)]

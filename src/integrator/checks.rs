@@ -15,14 +15,14 @@ where
     DefaultAllocator: Allocator<D>,
 {
     /// At a breakpoint: switch to the inputs of the interval ahead and tell the method.
+    #[inline(always)]
     pub(super) fn enter_segment(&mut self) {
         if let Some(c) = &self.problem.controls
             && let Some(k) = c.segment_near(self.t, self.dir, self.segment)
             && Some(k) != self.segment
         {
             self.segment = Some(k);
-            self.f.u.clear();
-            self.f.u.extend_from_slice(c.values(k).unwrap_or_default());
+            self.f.hold(c.values(k).unwrap_or_default());
         }
         self.method.reset();
     }

@@ -150,7 +150,7 @@ where
     /// Step to `t_end` through every breakpoint and control time, pushing every step:
     /// the steps, times, input switches, counters and errors of [`step`](Self::step),
     /// bit for bit, with the time, the next stop, the grid index and the counters in
-    /// locals (what `enter_segment` and `arrive` do, written out).
+    /// locals (`arrive` and `enter_segment` written out around them).
     pub(super) fn run_lean_fixed(&mut self, mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
         let t0 = self.problem.t0;
         let (dir, fixed_h, max_steps) = (self.dir, self.fixed_h, self.max_steps);
@@ -242,32 +242,13 @@ where
                     keep(t, &self.x);
                     return Ok(());
                 }
-                if let Some(c) = controls {
-                    // the next interval first (a log's stops are its times), inline
-                    let next = match self.segment {
-                        Some(k) if dir >= 0.0 => Some(k + 1),
-                        Some(k) => k.checked_sub(1),
-                        None => None,
-                    };
-                    let k = match next {
-                        Some(k) if k < c.intervals() && c.holds(k, t, dir) => Some(k),
-                        _ => c.segment_near(t, dir, self.segment),
-                    };
-                    if let Some(k) = k
-                        && Some(k) != self.segment
-                    {
-                        self.segment = Some(k);
-                        let v = c.values(k).unwrap_or_default();
-                        if v.len() == self.f.u.len() {
-                            // element by element: no memcpy call for two or three inputs
-                            for (d, s) in self.f.u.iter_mut().zip(v) {
-                                *d = *s;
-                            }
-                        } else {
-                            self.f.u.clear();
-                            self.f.u.extend_from_slice(v);
-                        }
-                    }
+                // `enter_segment` with the time in a register
+                if let Some(c) = controls
+                    && let Some(k) = c.segment_near(t, dir, self.segment)
+                    && Some(k) != self.segment
+                {
+                    self.segment = Some(k);
+                    self.f.hold(c.values(k).unwrap_or_default());
                 }
                 self.method.reset();
                 stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);

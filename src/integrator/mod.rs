@@ -347,8 +347,7 @@ where
     /// ```
     pub fn set_inputs(&mut self, u: &[f64]) -> Result<()> {
         check_inputs(u, self.problem.system.inputs())?;
-        self.f.u.clear();
-        self.f.u.extend_from_slice(u);
+        self.f.hold(u);
         self.method.reset();
         Ok(())
     }

@@ -1,14 +1,15 @@
 //! The cost of forward sensitivities as a multiple of the plain solve, for RK45 and
 //! implicit Euler: the differential drive with its three geometry parameters (`n = 3`,
 //! `m = n + n_p = 6` sensitivity columns, target ≤ (1 + m)×) and Van der Pol with μ
-//! (`n = 2`, `m = 3`, target ≤ 4×). Same model code, same options, plain and augmented
+//! (`n = 2`, `m = 3`, target ≤ 4×); and with `Wrt::Params`, `∂x/∂p` alone (`m = n_p`,
+//! target ≤ (1 + n_p)×: 4× and 2×). Same model code, same options, plain and augmented
 //! solves interleaved in one group.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::vector;
 use reckon::calibration::lsq::diff_drive;
 use reckon::methods::{Dopri5, ImplicitEuler};
-use reckon::sensitivity::{self, SensitivityOptions};
+use reckon::sensitivity::{self, SensitivityOptions, Wrt};
 use reckon::{Options, Problem, model};
 
 #[path = "../tests/common/drives.rs"]
@@ -18,6 +19,7 @@ use std::time::Duration;
 
 fn bench(c: &mut Criterion) {
     let so = SensitivityOptions::default();
+    let sp = SensitivityOptions::default().wrt(Wrt::Params);
     let dd = diff_drive(&[0.0502, 0.0497, 0.405]).unwrap();
     let p = Problem::new(&dd, vector![0.0, 0.0, 0.0], (0.0, 60.0)).controls(drives::wheel_speed_log());
     let vdp = model!(|_, x: [S; 2], p: [S; 1] = [1.5]| vector![x[1], p[0] * (1.0 - x[0] * x[0]) * x[1] - x[0]]);
@@ -44,6 +46,16 @@ fn bench(c: &mut Criterion) {
                     b.iter(|| {
                         black_box(
                             sensitivity::solve(&$prob, $method, black_box(o), &so)
+                                .unwrap()
+                                .stats
+                                .accepted,
+                        )
+                    })
+                });
+                g.bench_function(format!("{}/params-only", $label), |b| {
+                    b.iter(|| {
+                        black_box(
+                            sensitivity::solve(&$prob, $method, black_box(o), &sp)
                                 .unwrap()
                                 .stats
                                 .accepted,

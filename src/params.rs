@@ -126,8 +126,8 @@ where
         let n = x.len();
         let md = M::from_usize(n + self.params.len());
         let xd = x.map_with_location(|i, _, v| DualVec64::new(v, Derivative::derivative_generic(md, U1, i)));
-        let pd = constants::<M>(&self.params);
-        let r = (self.g)(t, &xd, u, &pd);
+        let pd = constants::<M>(md, &self.params);
+        let r = (self.g)(t, &xd, u, &pd.as_slice()[..self.params.len()]);
         // row i of J is the first n derivative parts of f_i: column-major as write_eps writes
         crate::sensitivity::write_eps(&r, n, n, jac.as_mut_slice());
     }
@@ -158,8 +158,8 @@ where
                 .map(|e| OVector::<f64, M>::from_fn_generic(md, U1, |k, _| if k < n { e[k] } else { 0.0 }));
             DualVec64::new(v.re, Derivative::new(eps))
         });
-        let pd = constants::<M>(&self.params);
-        let r = (self.g)(t, &xd, u, &pd);
+        let pd = constants::<M>(md, &self.params);
+        let r = (self.g)(t, &xd, u, &pd.as_slice()[..self.params.len()]);
         let (rn, _) = x.shape_generic();
         r.map(|v| {
             let eps = v
@@ -182,27 +182,32 @@ where
         x: &OVector<f64, D>,
         u: &[f64],
         s: &[f64],
+        m: usize,
         dx: &mut OVector<f64, D>,
         ds: &mut [f64],
     ) {
         let n = x.len();
         let np = self.params.len();
-        let m = n + np;
-        let md = M::from_usize(m);
-        // x_i + Σ_k s_ik ε_k, p_j + ε_{n+j}
+        if m < np || m > n + np {
+            ds.fill(f64::NAN);
+            return;
+        }
+        let md = M::from_usize(n + np);
+        // x_i + Σ_k s_ik ε_k (k < m), p_j + ε_{m − n_p + j}; directions m.. stay zero
         let xd = x.map_with_location(|i, _, v| {
             DualVec64::new(
                 v,
-                Derivative::some(OVector::<f64, M>::from_fn_generic(md, U1, |k, _| s[i + k * n])),
+                Derivative::some(OVector::<f64, M>::from_fn_generic(md, U1, |k, _| {
+                    if k < m { s[i + k * n] } else { 0.0 }
+                })),
             )
         });
-        let pd: Vec<DualVec64<M>> = self
-            .params
-            .iter()
-            .enumerate()
-            .map(|(j, &v)| DualVec64::new(v, Derivative::derivative_generic(md, U1, n + j)))
-            .collect();
-        let r = (self.g)(t, &xd, u, &pd);
+        // on the stack for a fixed-size model (M ≥ n_p slots, the first n_p used)
+        let pd = OVector::<DualVec64<M>, M>::from_fn_generic(md, U1, |j, _| match self.params.get(j) {
+            Some(&v) => DualVec64::new(v, Derivative::derivative_generic(md, U1, m - np + j)),
+            None => DualVec64::new(0.0, Derivative::none()),
+        });
+        let r = (self.g)(t, &xd, u, &pd.as_slice()[..np]);
         *dx = (self.f)(t, x, u, &self.params);
         crate::sensitivity::write_eps(&r, n, m, ds);
     }
@@ -222,10 +227,13 @@ where
 #[doc(hidden)]
 pub struct ParamBlockChecks;
 
-/// The parameters as dual constants (no derivative part): `p` held fixed.
-fn constants<M: Dim>(p: &[f64]) -> Vec<DualVec64<M>>
+/// The parameters as dual constants (no derivative part): `p` held fixed, in the first
+/// `p.len()` of `M ≥ n_p` slots (on the stack for a fixed-size model).
+fn constants<M: Dim>(md: M, p: &[f64]) -> OVector<DualVec64<M>, M>
 where
     DefaultAllocator: Allocator<M>,
 {
-    p.iter().map(|&v| DualVec64::new(v, Derivative::none())).collect()
+    OVector::<DualVec64<M>, M>::from_fn_generic(md, U1, |j, _| {
+        DualVec64::new(p.get(j).copied().unwrap_or(0.0), Derivative::none())
+    })
 }

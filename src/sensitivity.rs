@@ -82,15 +82,50 @@ where
 }
 
 /// How [`solve`] treats the sensitivities.
+///
+/// ```
+/// use reckon::sensitivity::{SensitivityOptions, Wrt};
+/// let o = SensitivityOptions::default().wrt(Wrt::Params).error_control(true);
+/// assert_eq!((o.wrt, o.error_control), (Wrt::Params, true));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct SensitivityOptions {
     /// Put `S` in the error estimate of adaptive methods too (default `false`: `x` only,
     /// so that the steps are those of the plain solve).
     pub error_control: bool,
+    /// Which derivatives `S` carries (default [`Wrt::All`]: `∂x/∂x₀` and `∂x/∂p`).
+    pub wrt: Wrt,
+}
+
+impl SensitivityOptions {
+    /// Set [`error_control`](Self::error_control).
+    pub fn error_control(mut self, on: bool) -> Self {
+        self.error_control = on;
+        self
+    }
+    /// Set [`wrt`](Self::wrt).
+    pub fn wrt(mut self, wrt: Wrt) -> Self {
+        self.wrt = wrt;
+        self
+    }
+}
+
+/// The columns of `S`: with respect to the initial state and the parameters
+/// (`S = ∂x/∂(x₀, p)`, `n + n_p` columns, `S(t₀) = [I | 0]`), or to the parameters alone
+/// (`S = ∂x/∂p`, `n_p` columns, `S(t₀) = 0`), which is what a fit of `p` needs and costs
+/// `n` fewer columns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Wrt {
+    /// `∂x/∂x₀` and `∂x/∂p`.
+    #[default]
+    All,
+    /// `∂x/∂p` only ([`Error::InvalidInput`] for a model without parameters).
+    Params,
 }
 
 /// `x' = f`, `Ṡ = J·S + [0 | ∂f/∂p]` as one [`System`] on the stacked state
-/// `z = (x, vec S)` of `n·(1 + m)` components.
+/// `z = (x, vec S)` of `n·(1 + m)` components (`m = n + n_p`, or `m = n_p` for
+/// [`Wrt::Params`]: `Ṡ = J·S + ∂f/∂p`).
 pub struct Augmented<'s, D, S> {
     sys: &'s S,
     n: usize,
@@ -102,12 +137,17 @@ impl<'s, D: Dim, S: DualSystem<D>> Augmented<'s, D, S>
 where
     DefaultAllocator: Allocator<D> + Allocator<U1, D>,
 {
-    /// The augmented system of `sys` for a state of `n` components.
-    pub fn new(sys: &'s S, n: usize) -> Self {
+    /// The augmented system of `sys` for a state of `n` components, with the columns of
+    /// `wrt` (`m = n + n_p` or `n_p`).
+    pub fn new(sys: &'s S, n: usize, wrt: Wrt) -> Self {
+        let np = sys.n_params();
         Augmented {
             sys,
             n,
-            m: n + sys.n_params(),
+            m: match wrt {
+                Wrt::All => n + np,
+                Wrt::Params => np,
+            },
             _dim: PhantomData,
         }
     }
@@ -135,7 +175,8 @@ where
         let x = self.x_of(z);
         let mut dx = x.clone();
         let (zs, dzs) = (z.as_slice(), dz.as_mut_slice());
-        self.sys.rhs_sensitivity(t, &x, u, &zs[n..], &mut dx, &mut dzs[n..]);
+        self.sys
+            .rhs_sensitivity(t, &x, u, &zs[n..], self.m, &mut dx, &mut dzs[n..]);
         if dx.len() != n {
             dzs.fill(f64::NAN);
             return;
@@ -166,10 +207,10 @@ where
             let mut xp = x.clone();
             xp[c] += d;
             let dp = xp[c] - x[c];
-            self.sys.rhs_sensitivity(t, &xp, u, s, &mut dx, &mut up);
+            self.sys.rhs_sensitivity(t, &xp, u, s, m, &mut dx, &mut up);
             xp[c] = x[c] - d;
             let dm = x[c] - xp[c];
-            self.sys.rhs_sensitivity(t, &xp, u, s, &mut dx, &mut down);
+            self.sys.rhs_sensitivity(t, &xp, u, s, m, &mut dx, &mut down);
             for r in 0..n * m {
                 jac[(n + r, c)] = (up[r] - down[r]) / (dp + dm);
             }
@@ -304,8 +345,11 @@ where
     pub t: Vec<f64>,
     /// States at the saved times.
     pub x: Vec<OVector<f64, D>>,
-    /// `S = ∂x/∂(x₀, p)` at the saved times, `n × (n + n_p)`.
+    /// `S = ∂x/∂(x₀, p)` at the saved times, `n × (n + n_p)` (`∂x/∂p`, `n × n_p`, for
+    /// [`Wrt::Params`]).
     pub s: Vec<DMatrix<f64>>,
+    /// The columns `S` carries.
+    pub wrt: Wrt,
     /// Number of model parameters.
     pub n_params: usize,
     /// Counters of the augmented run (each `f` evaluation is one dual evaluation of the body).
@@ -318,15 +362,23 @@ impl<D: Dim> Sensitivities<D>
 where
     DefaultAllocator: Allocator<D>,
 {
-    /// `∂x(t_k)/∂x₀` (`n × n`).
+    /// `∂x(t_k)/∂x₀` (`n × n`; `n × 0` when the solve had [`Wrt::Params`]).
     pub fn wrt_x0(&self, k: usize) -> DMatrix<f64> {
-        let n = self.s[k].nrows();
-        self.s[k].columns(0, n).into_owned()
+        self.s[k].columns(0, self.x0_columns()).into_owned()
     }
     /// `∂x(t_k)/∂p` (`n × n_p`).
     pub fn wrt_params(&self, k: usize) -> DMatrix<f64> {
-        let n = self.s[k].nrows();
-        self.s[k].columns(n, self.n_params).into_owned()
+        self.s[k].columns(self.x0_columns(), self.n_params).into_owned()
+    }
+    /// `∂x_i(t_k)/∂p_j`.
+    pub fn dx_dp(&self, k: usize, i: usize, j: usize) -> f64 {
+        self.s[k][(i, self.x0_columns() + j)]
+    }
+    fn x0_columns(&self) -> usize {
+        match self.wrt {
+            Wrt::All => self.s.first().map_or(0, |s| s.nrows()),
+            Wrt::Params => 0,
+        }
     }
     /// The last state.
     pub fn last_x(&self) -> &OVector<f64, D> {
@@ -369,13 +421,21 @@ where
     }
     let n = problem.x0.len();
     let np = problem.system.n_params();
-    let m = n + np;
+    if sens.wrt == Wrt::Params && np == 0 {
+        return Err(Error::invalid(
+            "wrt",
+            "sensitivities with respect to the parameters of a model without a parameter block",
+        ));
+    }
     let method = method.augment(n, np)?;
-    let aug = Augmented::new(&problem.system, n);
+    let aug = Augmented::new(&problem.system, n, sens.wrt);
+    let m = aug.m;
     let mut z0 = DVector::zeros(n * (1 + m));
     z0.rows_mut(0, n).copy_from_slice(problem.x0.as_slice());
-    for i in 0..n {
-        z0[n + i + i * n] = 1.0;
+    if sens.wrt == Wrt::All {
+        for i in 0..n {
+            z0[n + i + i * n] = 1.0;
+        }
     }
     let mut ap = Problem::<Dyn, Augmented<'_, D, S>>::new(aug, z0, (problem.t0, problem.t_end));
     ap.controls = problem.controls.clone();
@@ -410,6 +470,7 @@ where
             .map(|z| DMatrix::from_column_slice(n, m, &z.as_slice()[n..]))
             .collect(),
         t: sol.t,
+        wrt: sens.wrt,
         n_params: np,
         stats: sol.stats,
         method: sol.method,

@@ -343,11 +343,12 @@ where
     fn params(&self) -> &[f64] {
         &[]
     }
-    /// `dx ← f(t, x, u)` and `ds ← J·S + [0 | ∂f/∂p]` for the `n × (n + n_p)` sensitivity
-    /// matrix `S` stored column-major in `s` (and `ds`): the right-hand side of
-    /// [`crate::sensitivity`]. The default evaluates [`rhs_dual`](Self::rhs_dual) at `x`
-    /// with the rows of `S` (`n_p = 0`: `n × n`) as derivative parts, so `J·S` is exact to
-    /// rounding, and `f` with [`rhs`](System::rhs).
+    /// `dx ← f(t, x, u)` and `ds ← J·S + [0 | ∂f/∂p]` for the `n × m` sensitivity matrix
+    /// `S` stored column-major in `s` (and `ds`), whose last `n_p` columns are those of the
+    /// parameters (`m = n + n_p`: `∂/∂(x₀, p)`; `m = n_p`: `∂/∂p` only): the right-hand
+    /// side of [`crate::sensitivity`]. The default (`n_p = 0`, `m ≤ n`) evaluates
+    /// [`rhs_dual`](Self::rhs_dual) at `x` with the rows of `S` as derivative parts, so
+    /// `J·S` is exact to rounding, and `f` with [`rhs`](System::rhs).
     ///
     /// ```
     /// use reckon::{model, DualSystem};
@@ -355,7 +356,7 @@ where
     /// let f = model!(|_, x: [S; 2]| vector![x[1], -x[0]]);
     /// let (mut dx, mut ds) = (vector![0.0, 0.0], [0.0; 4]);
     /// // S = I: Ṡ = J = [[0, 1], [−1, 0]] (column-major)
-    /// f.rhs_sensitivity(0.0, &vector![1.0, 0.0], &[], &[1.0, 0.0, 0.0, 1.0], &mut dx, &mut ds);
+    /// f.rhs_sensitivity(0.0, &vector![1.0, 0.0], &[], &[1.0, 0.0, 0.0, 1.0], 2, &mut dx, &mut ds);
     /// assert_eq!((dx, ds), (vector![0.0, -1.0], [0.0, -1.0, 1.0, 0.0]));
     /// ```
     fn rhs_sensitivity(
@@ -364,20 +365,27 @@ where
         x: &OVector<f64, D>,
         u: &[f64],
         s: &[f64],
+        m: usize,
         dx: &mut OVector<f64, D>,
         ds: &mut [f64],
     ) {
         let n = x.len();
         let (r, _) = x.shape_generic();
+        if m > n {
+            ds.fill(f64::NAN);
+            return;
+        }
         let xd = x.map_with_location(|i, _, v| {
             DualVec64::new(
                 v,
-                num_dual::Derivative::some(OVector::<f64, D>::from_fn_generic(r, U1, |k, _| s[i + k * n])),
+                num_dual::Derivative::some(OVector::<f64, D>::from_fn_generic(r, U1, |k, _| {
+                    if k < m { s[i + k * n] } else { 0.0 }
+                })),
             )
         });
         let out = self.rhs_dual(t, &xd, u);
         self.rhs(t, x, u, dx);
-        crate::sensitivity::write_eps(&out, n, n, ds);
+        crate::sensitivity::write_eps(&out, n, m, ds);
     }
 }
 
@@ -413,10 +421,11 @@ where
         x: &OVector<f64, D>,
         u: &[f64],
         s: &[f64],
+        m: usize,
         dx: &mut OVector<f64, D>,
         ds: &mut [f64],
     ) {
-        (**self).rhs_sensitivity(t, x, u, s, dx, ds)
+        (**self).rhs_sensitivity(t, x, u, s, m, dx, ds)
     }
 }
 

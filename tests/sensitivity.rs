@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, Matrix2, SVector, Vector2, vector};
 use reckon::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, ImplicitEuler, Rodas5P};
 use reckon::models::unicycle;
-use reckon::sensitivity::{self, Augment, Sensitivities, SensitivityOptions};
+use reckon::sensitivity::{self, Augment, Sensitivities, SensitivityOptions, Wrt};
 use reckon::{Controls, DualSystem, Error, Event, Options, Problem, model};
 
 fn sens<S: DualSystem<nalgebra::Const<N>>, M: Augment<nalgebra::Const<N>>, const N: usize>(
@@ -211,7 +211,13 @@ fn x_part_is_the_plain_solve_bit_for_bit_for_explicit_methods() {
     assert_eq!(plain.t, s.t);
     assert_eq!(plain.x, s.x);
     // with the sensitivities in the error control the steps change (more of them here)
-    let c = sensitivity::solve(&p, Dopri5::default(), &o, &SensitivityOptions { error_control: true }).unwrap();
+    let c = sensitivity::solve(
+        &p,
+        Dopri5::default(),
+        &o,
+        &SensitivityOptions::default().error_control(true),
+    )
+    .unwrap();
     assert!(c.t.len() > s.t.len(), "{} vs {}", c.t.len(), s.t.len());
     assert!(max_rel(c.s.last().unwrap(), s.s.last().unwrap()) < 1e-6);
 }
@@ -341,4 +347,58 @@ fn dynamic_state_with_parameters() {
     assert!((dp[(0, 0)] + (-0.5f64).exp()).abs() < 1e-10);
     assert!((dp[(1, 1)] + 3.0 * (-2.0f64).exp()).abs() < 1e-10);
     assert!(dp[(0, 1)].abs() < 1e-15 && dp[(1, 0)].abs() < 1e-15);
+}
+
+#[test]
+fn parameters_only() {
+    // Wrt::Params carries ∂x/∂p alone (S(t₀) = 0): the same columns as Wrt::All, bit for bit
+    // for explicit methods (each dual direction is computed on its own, the steps are
+    // those of x), to the Newton tolerance for implicit ones, and the same x
+    let f = vdp();
+    let p = Problem::new(&f, vector![2.0, 0.0], (0.0, 4.0));
+    let only = SensitivityOptions::default().wrt(Wrt::Params);
+    let o = Options::default().rtol(1e-9).atol(1e-11);
+    let a = sensitivity::solve(&p, Dopri5::default(), &o, &SensitivityOptions::default()).unwrap();
+    let b = sensitivity::solve(&p, Dopri5::default(), &o, &only).unwrap();
+    assert_eq!((b.s[0].nrows(), b.s[0].ncols()), (2, 1));
+    assert_eq!(b.wrt_x0(0).ncols(), 0);
+    assert_eq!(b.wrt_params(0), DMatrix::zeros(2, 1));
+    assert_eq!(a.t, b.t);
+    assert_eq!(a.x, b.x);
+    for k in 0..a.t.len() {
+        assert_eq!(a.wrt_params(k), b.wrt_params(k), "t = {}", a.t[k]);
+        assert_eq!(a.dx_dp(k, 1, 0), b.dx_dp(k, 1, 0));
+    }
+    // and against central differences of whole solves in μ
+    let k = b.t.len() - 1;
+    let d = 1e-5;
+    let end = |mu: f64| {
+        let g = model!(|_, x: [S; 2], p: [S; 1] = [1.5]| vector![x[1], p[0] * (1.0 - x[0] * x[0]) * x[1] - x[0]])
+            .with_params(&[mu])
+            .unwrap();
+        let q = Problem::new(&g, vector![2.0, 0.0], (0.0, 4.0));
+        *q.solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-14))
+            .unwrap()
+            .last()
+            .1
+    };
+    let fd = (end(1.5 + d) - end(1.5 - d)) / (2.0 * d);
+    for i in 0..2 {
+        assert!(
+            (b.dx_dp(k, i, 0) - fd[i]).abs() < 1e-5 * fd.amax(),
+            "{i}: {} vs {}",
+            b.dx_dp(k, i, 0),
+            fd[i]
+        );
+    }
+    let ie = Options::default().rtol(1e-6).atol(1e-9);
+    let a = sensitivity::solve(&p, ImplicitEuler::default(), &ie, &SensitivityOptions::default()).unwrap();
+    let b = sensitivity::solve(&p, ImplicitEuler::default(), &ie, &only).unwrap();
+    let k = a.t.len() - 1;
+    assert_eq!(a.t.len(), b.t.len());
+    assert!((a.wrt_params(k) - b.wrt_params(k)).amax() < 1e-6 * a.wrt_params(k).amax());
+    // a model without parameters has nothing to differentiate by
+    let q = Problem::new(linear(), vector![1.0, 1.0], (0.0, 1.0));
+    let e = sensitivity::solve(&q, Dopri5::default(), &o, &only).unwrap_err();
+    assert!(matches!(e, Error::InvalidInput { what: "wrt", .. }), "{e}");
 }

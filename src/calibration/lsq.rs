@@ -17,7 +17,7 @@ use crate::controls::Controls;
 use crate::error::{Error, Result};
 use crate::options::{Options, Save};
 use crate::problem::Problem;
-use crate::sensitivity::{self, Augment, SensitivityOptions};
+use crate::sensitivity::{self, Augment, SensitivityOptions, Wrt};
 use crate::system::DualSystem;
 use argmin::core::{Executor, Jacobian, Operator, State};
 use argmin::solver::gaussnewton::GaussNewtonLS;
@@ -49,7 +49,7 @@ pub struct LsqOptions {
     pub tol: f64,
     /// Largest condition number of the column-scaled residual Jacobian accepted (default 1e8).
     pub max_condition: f64,
-    /// The sensitivity solve's options.
+    /// The sensitivity solve's options (the fit always asks for [`Wrt::Params`]: `∂x/∂p` only).
     pub sensitivity: SensitivityOptions,
 }
 
@@ -142,9 +142,8 @@ where
             ));
         }
         let problem = Problem::new(&model, self.x0.clone(), self.span).controls(self.controls.clone());
-        let sol = sensitivity::solve(&problem, self.method.clone(), &self.opts, &self.sens)?;
+        let sol = sensitivity::solve(&problem, self.method.clone(), &self.opts, &self.sens.wrt(Wrt::Params))?;
         let nc = self.obs.components.len();
-        let n = self.x0.len();
         let mut r = Vec::with_capacity(self.obs.t.len() * nc);
         let mut j = DMatrix::zeros(self.obs.t.len() * nc, np);
         // Save::At keeps exactly the observation times, in order
@@ -162,7 +161,7 @@ where
                 let w = 1.0 / self.obs.sigma[c];
                 r.push(d * w);
                 for q in 0..np {
-                    j[(k * nc + c, q)] = sol.s[i][(comp, n + q)] * w;
+                    j[(k * nc + c, q)] = sol.dx_dp(i, comp, q) * w;
                 }
             }
         }

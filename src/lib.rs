@@ -17,6 +17,7 @@ pub mod integrator;
 pub mod kalman;
 mod lhs;
 pub mod linalg;
+pub mod lti;
 pub mod methods;
 pub mod models;
 pub mod options;
@@ -36,6 +37,7 @@ pub use controls::Controls;
 pub use error::{Error, Result};
 pub use events::{Direction, Event};
 pub use integrator::Integrator;
+pub use lti::Lti;
 pub use nalgebra;
 pub use num_dual;
 

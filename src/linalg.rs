@@ -5,6 +5,7 @@
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, OVector, SMatrix, SVector};
 
+pub mod expm;
 mod iteration;
 pub(crate) use iteration::IterationMatrix;
 

@@ -16,12 +16,12 @@
 //! to rounding; for [`ImplicitEuler`](crate::methods::ImplicitEuler) and
 //! [`Bdf`](crate::methods::Bdf) it is the derivative of the solution of the discrete
 //! implicit equations (the implicit function theorem), to the Newton tolerance, because
-//! Newton's iterate is not the exact root. [`Rodas5P`](crate::methods::Rodas5P) has the
-//! Jacobian in its formula, so the derivative of its step needs the second derivatives
+//! Newton's iterate is not the exact root. [`Rodas5P`](crate::methods::Rodas5P) and
+//! [`ExponentialEuler`](crate::methods::ExponentialEuler) have the Jacobian in their formula, so the derivative of its step needs the second derivatives
 //! `∂(J·S + [0 | ∂f/∂p])/∂x` (the lower-left block of the augmented Jacobian): these are
 //! central differences of the exact dual `J·S` (relative error about 1e-10, the one
-//! difference quotient here; the `x` block `J` stays exact), so Rodas5P's `S` is the
-//! derivative of its computed solution to about that accuracy.
+//! difference quotient here; the `x` block `J` stays exact), so their `S` is the
+//! derivative of the computed solution to about that accuracy.
 //!
 //! **Steps.** By default the error estimate covers `x` only
 //! ([`Options::error_components`](crate::Options::error_components)), so an explicit
@@ -311,6 +311,7 @@ augment_as_is!(
     crate::methods::ImplicitEuler<Dyn>,
     crate::methods::Bdf<Dyn>,
     crate::methods::Rodas5P<Dyn>,
+    crate::methods::ExponentialEuler<Dyn>,
     crate::methods::Auto<Dyn>
 );
 

@@ -359,6 +359,7 @@ where
     /// f.rhs_sensitivity(0.0, &vector![1.0, 0.0], &[], &[1.0, 0.0, 0.0, 1.0], 2, &mut dx, &mut ds);
     /// assert_eq!((dx, ds), (vector![0.0, -1.0], [0.0, -1.0, 1.0, 0.0]));
     /// ```
+    #[allow(clippy::too_many_arguments)]
     fn rhs_sensitivity(
         &self,
         t: f64,

@@ -155,6 +155,85 @@ where
     }
 }
 
+/// The discrete process noise of `x' = A·x + G·w`, `w` white with spectral density `Q`,
+/// over a step `h`: `Q_d = ∫₀ʰ e^{As}·G·Q·Gᵀ·e^{Aᵀs} ds`, by Van Loan's method (1978):
+/// `exp([[−A, G Q Gᵀ], [0, Aᵀ]]·h) = [[·, F₁₂], [0, F₂₂]]`, `Φ = F₂₂ᵀ`, `Q_d = Φ·F₁₂`,
+/// symmetrised. Van Loan's block holds `e^{−Ah}`, which for a stiff `A` is huge and
+/// cancels in `Φ·F₁₂`, so the block is taken over `h/2^k` with `‖A‖₁·h/2^k ≤ 1` and
+/// doubled back, `Q_d(2τ) = Q_d(τ) + Φ(τ)·Q_d(τ)·Φ(τ)ᵀ`, `Φ(2τ) = Φ(τ)²` (exact
+/// identities of the integral), which keeps the relative accuracy of the exponential.
+///
+/// The constant-velocity model (position, velocity; white acceleration of density `q`):
+///
+/// ```
+/// use reckon::kalman::discretise_noise;
+/// use nalgebra::{Matrix1, Matrix2, Vector2};
+/// let (h, q) = (0.1, 2.0);
+/// let a = Matrix2::new(0.0, 1.0, 0.0, 0.0);
+/// let qd = discretise_noise(&a, &Vector2::new(0.0, 1.0), &Matrix1::new(q), h).unwrap();
+/// let want = Matrix2::new(h * h * h / 3.0, h * h / 2.0, h * h / 2.0, h) * q;
+/// assert!((qd - want).amax() < 1e-16);
+/// ```
+///
+/// Errors: [`Error::InvalidInput`] for sizes that do not match, a non-finite entry or
+/// `h`, or `h < 0`.
+pub fn discretise_noise<D: Dim, W: Dim>(
+    a: &OMatrix<f64, D, D>,
+    g: &OMatrix<f64, D, W>,
+    q: &OMatrix<f64, W, W>,
+    h: f64,
+) -> Result<OMatrix<f64, D, D>>
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D, W> + Allocator<W, W>,
+{
+    let n = a.nrows();
+    let w = g.ncols();
+    if a.ncols() != n || g.nrows() != n || q.nrows() != w || q.ncols() != w {
+        return Err(Error::invalid(
+            "noise",
+            format!(
+                "A is {}x{}, G is {}x{}, Q is {}x{}",
+                a.nrows(),
+                a.ncols(),
+                g.nrows(),
+                g.ncols(),
+                q.nrows(),
+                q.ncols()
+            ),
+        ));
+    }
+    if !(h.is_finite() && h >= 0.0) {
+        return Err(Error::invalid("h", format!("a noise step of {h}")));
+    }
+    let ad = nalgebra::DMatrix::from_column_slice(n, n, a.as_slice());
+    let gd = nalgebra::DMatrix::from_column_slice(n, w, g.as_slice());
+    let qq = nalgebra::DMatrix::from_column_slice(w, w, q.as_slice());
+    let gqg = &gd * qq * gd.transpose();
+    let norm = ad.lp_norm(1) * h;
+    let k = if norm > 1.0 { norm.log2().ceil() as i32 } else { 0 };
+    let tau = h / 2f64.powi(k);
+    let mut m = nalgebra::DMatrix::zeros(2 * n, 2 * n);
+    m.view_mut((0, 0), (n, n)).copy_from(&(-&ad * tau));
+    m.view_mut((0, n), (n, n)).copy_from(&(&gqg * tau));
+    m.view_mut((n, n), (n, n)).copy_from(&(ad.transpose() * tau));
+    let e = crate::linalg::expm::expm(&m)?;
+    let mut phi = e.view((n, n), (n, n)).transpose();
+    let mut qd = &phi * e.view((0, n), (n, n));
+    for _ in 0..k {
+        qd = &qd + &phi * &qd * phi.transpose();
+        phi = &phi * &phi;
+    }
+    let qd = (&qd + qd.transpose()) * 0.5;
+    if let Some(i) = qd.iter().position(|v| !v.is_finite()) {
+        return Err(Error::invalid(
+            "noise",
+            format!("Q_d overflows (entry {i} is {})", qd[i]),
+        ));
+    }
+    let (r, c) = a.shape_generic();
+    Ok(OMatrix::<f64, D, D>::from_column_slice_generic(r, c, qd.as_slice()))
+}
+
 /// Semi-axes and orientation of the confidence ellipse of a 2-D Gaussian at level `η`:
 /// the region `(x − x̂)ᵀΓ⁻¹(x − x̂) ≤ a²` with `a = √(−2 ln(1 − η))` (η = 0.9 gives
 /// a = 2.146). Returns `(a·√λ₁, a·√λ₂, angle of the first axis)`.

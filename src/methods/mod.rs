@@ -13,6 +13,7 @@ pub mod bdf;
 pub mod dopri5;
 pub mod exact;
 pub mod explicit_euler;
+pub mod exponential_euler;
 pub mod implicit_euler;
 pub mod newton;
 pub mod rodas5p;
@@ -22,6 +23,7 @@ pub use bdf::Bdf;
 pub use dopri5::Dopri5;
 pub use exact::{Exact, Flow};
 pub use explicit_euler::ExplicitEuler;
+pub use exponential_euler::ExponentialEuler;
 pub use implicit_euler::{ImplicitEuler, NewtonOptions};
 pub use rodas5p::Rodas5P;
 

@@ -1,0 +1,279 @@
+//! The exponential Rosenbrock–Euler method (Hochbruck, Ostermann & Schweitzer 2009):
+//! the exact flow of the model linearised at the start of each step.
+
+use super::{Method, Outcome};
+use crate::control::Weights;
+use crate::error::Result;
+use crate::linalg::expm::phi_combination;
+use crate::system::{Eval, System};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DMatrix, DefaultAllocator, Dim, OMatrix, OVector};
+
+/// Exponential Rosenbrock–Euler:
+/// `x₁ = x₀ + h·φ₁(hJ)·f(t₀, x₀) + h²·φ₂(hJ)·∂f/∂t(t₀, x₀)`, `J = ∂f/∂x (t₀, x₀)` exact
+/// from the model's dual body, `φ₁(z) = (e^z − 1)/z`, `φ₂(z) = (e^z − 1 − z)/z²`.
+///
+/// It integrates the linearisation `x' = f₀ + J·(x − x₀) + f_t·(t − t₀)` exactly, so it
+/// is **exact for linear models** (to rounding, at any step), **second order** for
+/// nonlinear ones (the remainder `f − f₀ − J·(x − x₀)` is `O(‖x − x₀‖²)`), and stable for
+/// any step on stiff linear parts (`φ₁(hλ) → 0` as `hλ → −∞`, so a fast decaying mode is
+/// damped, not amplified). Without `∂f/∂t` from the model
+/// ([`System::time_derivative`]) a forward difference in `t` stands in, as in
+/// [`Rodas5P`](super::Rodas5P). The `φ` combination comes from one exponential of an
+/// `(n + 2)`-square block matrix ([`crate::linalg::expm`], Padé scaling and squaring):
+/// `O(n³)` per step, so this method is for small and medium dense systems.
+///
+/// **Error estimate** (adaptive mode): the embedded pair of `exprb32` (Hochbruck,
+/// Ostermann & Schweitzer 2009, §5), whose third-order solution adds
+/// `2h·φ₃(hJ)·D` to this one, `D = f(t₁, x₁) − f₀ − J·(x₁ − x₀) − h·f_t` (the nonlinear
+/// remainder at the end of the step, `O(h²)`). So `ê = 2h·φ₃(hJ)·D` estimates this
+/// method's local error `O(h³)` (error order 2, controller exponent ⅓); it vanishes on a
+/// linear model, where the method is exact and the steps grow freely. One more `f` and
+/// one more `(n + 3)`-square exponential per step; `f(t₁, x₁)` is reused as the next
+/// step's `f₀`.
+///
+/// **Dense output**: cubic Hermite through both ends (third order, above the method's).
+///
+/// ```
+/// use reckon::{model, methods::ExponentialEuler, Options, Problem, StepSize};
+/// use nalgebra::vector;
+/// // linear: x' = −50·x + 1 is integrated exactly with one step of h = 1
+/// let f = model!(|_t, x: [S; 1]| vector![x[0] * -50.0 + 1.0]);
+/// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0))
+///     .solve(ExponentialEuler::default(), &Options::default().step(StepSize::Fixed(1.0)))
+///     .unwrap();
+/// let exact = 0.02 + 0.98 * (-50.0f64).exp();
+/// assert!((sol.last().1[0] - exact).abs() < 1e-15);
+/// ```
+#[derive(Debug, Clone)]
+pub struct ExponentialEuler<D: Dim>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    work: Option<Work<D>>,
+}
+
+#[derive(Debug, Clone)]
+struct Work<D: Dim>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    /// `f`, `J` and `f_t` at `(t_at, x_at)`.
+    t_at: f64,
+    x_at: OVector<f64, D>,
+    fx: OVector<f64, D>,
+    jac: OMatrix<f64, D, D>,
+    dfdt: OVector<f64, D>,
+    /// Whether `jac` and `dfdt` belong to `(t_at, x_at)` (after an accepted step only
+    /// `fx` does: the end-of-step `f` of the estimate).
+    linearised: bool,
+    /// `f(t₁, x₁)` of the step just attempted (adaptive mode).
+    f_new: OVector<f64, D>,
+    f_new_valid: bool,
+    /// `(t₁, x₁)` of the attempt.
+    t_new: f64,
+    x_new: OVector<f64, D>,
+}
+
+impl<D: Dim> Default for ExponentialEuler<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<D: Dim> ExponentialEuler<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    /// The method (it has no settings).
+    pub fn new() -> Self {
+        ExponentialEuler { work: None }
+    }
+}
+
+impl<D: Dim> Work<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    /// `f`, `J`, `f_t` at `(t, x)`, evaluated only if they are not there already.
+    fn linearise<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t: f64, x: &OVector<f64, D>) -> Result<()> {
+        let here = self.t_at == t && self.x_at == *x;
+        if here && self.linearised {
+            return Ok(());
+        }
+        if !here {
+            f.rhs(t, x, &mut self.fx)?;
+        }
+        f.jacobian(t, x, &mut self.jac)?;
+        if !f.time_derivative(t, x, &mut self.dfdt)? {
+            // forward difference in t, for the h²·φ₂·f_t term only
+            let dt = f64::EPSILON.sqrt() * t.abs().max(1.0);
+            let t1 = t + dt;
+            let dt = t1 - t;
+            f.rhs(t1, x, &mut self.dfdt)?;
+            self.dfdt -= &self.fx;
+            self.dfdt /= dt;
+        }
+        self.t_at = t;
+        self.x_at.copy_from(x);
+        self.linearised = true;
+        Ok(())
+    }
+    /// `hJ` as a dense matrix.
+    fn h_jac(&self, h: f64) -> DMatrix<f64> {
+        let n = self.jac.nrows();
+        DMatrix::from_fn(n, n, |r, c| h * self.jac[(r, c)])
+    }
+}
+
+impl<D: Dim> Method<D> for ExponentialEuler<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    fn name(&self) -> &'static str {
+        "exponential-euler"
+    }
+    fn order(&self) -> u32 {
+        2
+    }
+    fn error_order(&self) -> Option<u32> {
+        Some(2)
+    }
+    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()> {
+        let (r, _) = x0.shape_generic();
+        let mut fx = x0.clone();
+        f.rhs(t0, x0, &mut fx)?;
+        self.work = Some(Work {
+            t_at: t0,
+            x_at: x0.clone(),
+            fx,
+            jac: OMatrix::<f64, D, D>::zeros_generic(r, r),
+            dfdt: x0.clone(),
+            linearised: false,
+            f_new: x0.clone(),
+            f_new_valid: false,
+            t_new: t0,
+            x_new: x0.clone(),
+        });
+        Ok(())
+    }
+    fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
+        self.work.as_ref().map(|w| &w.fx)
+    }
+    fn never_retries(&self) -> bool {
+        true
+    }
+    fn step<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t: f64,
+        x: &OVector<f64, D>,
+        h: f64,
+        x_new: &mut OVector<f64, D>,
+        w: &Weights<D>,
+        adaptive: bool,
+    ) -> Result<Outcome> {
+        let Some(s) = self.work.as_mut() else {
+            return Err(crate::Error::invalid(
+                "method",
+                "ExponentialEuler::step called before init",
+            ));
+        };
+        s.linearise(f, t, x)?;
+        let n = x.len();
+        let hj = s.h_jac(h);
+        let mut wcols = DMatrix::zeros(n, 2);
+        for i in 0..n {
+            wcols[(i, 0)] = h * s.fx[i];
+            wcols[(i, 1)] = h * h * s.dfdt[i];
+        }
+        s.f_new_valid = false;
+        let Ok((_, step)) = phi_combination(&hj, &wcols) else {
+            // e^{hJ} overflowed: the solution blows up over this step; the driver
+            // reports the non-finite state
+            x_new.fill(f64::NAN);
+            return Ok(Outcome::Done { err: f64::NAN });
+        };
+        for i in 0..n {
+            x_new[i] = x[i] + step[i];
+        }
+        s.t_new = t + h;
+        s.x_new.copy_from(x_new);
+        if !adaptive {
+            return Ok(Outcome::Done { err: 0.0 });
+        }
+        // D = f(t₁, x₁) − f₀ − J·(x₁ − x₀) − h·f_t; ê = 2h·φ₃(hJ)·D
+        f.rhs(t + h, x_new, &mut s.f_new)?;
+        s.f_new_valid = true;
+        let mut e = DMatrix::zeros(n, 3);
+        for i in 0..n {
+            let mut jd = 0.0;
+            for k in 0..n {
+                jd += s.jac[(i, k)] * (x_new[k] - x[k]);
+            }
+            e[(i, 2)] = 2.0 * h * (s.f_new[i] - s.fx[i] - jd - h * s.dfdt[i]);
+        }
+        let Ok((_, est)) = phi_combination(&hj, &e) else {
+            return Ok(Outcome::Done { err: f64::NAN });
+        };
+        let est = OVector::<f64, D>::from_iterator_generic(x.shape_generic().0, nalgebra::U1, est.iter().copied());
+        Ok(Outcome::Done {
+            err: w.norm(&est, x, x_new),
+        })
+    }
+    fn accept(&mut self) {
+        if let Some(s) = self.work.as_mut() {
+            // f(t₁, x₁) of the estimate is the next step's f₀ (FSAL); J is not
+            if s.f_new_valid {
+                std::mem::swap(&mut s.fx, &mut s.f_new);
+                s.t_at = s.t_new;
+                s.x_at.copy_from(&s.x_new);
+                s.linearised = false;
+                s.f_new_valid = false;
+            }
+        }
+    }
+    fn reset(&mut self) {
+        // the inputs jumped: f, J and f_t belong to the old interval
+        if let Some(s) = self.work.as_mut() {
+            s.t_at = f64::NAN;
+            s.linearised = false;
+            s.f_new_valid = false;
+        }
+    }
+    fn dense_len(&self) -> usize {
+        4
+    }
+    /// Cubic Hermite: `c₀ = x₀, c₁ = h f₀, c₂ = 3Δ − 2h f₀ − h f₁, c₃ = −2Δ + h f₀ + h f₁`, `Δ = x₁ − x₀`.
+    fn dense<S: System<D>>(
+        &mut self,
+        f: &mut Eval<'_, D, S>,
+        t: f64,
+        h: f64,
+        x: &OVector<f64, D>,
+        x_new: &OVector<f64, D>,
+        c: &mut [OVector<f64, D>],
+    ) -> Result<()> {
+        let (c01, c23) = c.split_at_mut(2);
+        match self.work.as_ref() {
+            Some(s) if s.t_at == t && s.x_at == *x => c01[1].copy_from(&s.fx),
+            _ => f.rhs(t, x, &mut c01[1])?,
+        }
+        match self.work.as_ref() {
+            Some(s) if s.f_new_valid && s.t_new == t + h && s.x_new == *x_new => c23[1].copy_from(&s.f_new),
+            _ => f.rhs(t + h, x_new, &mut c23[1])?,
+        }
+        for i in 0..x.len() {
+            let d = x_new[i] - x[i];
+            let (f0, f1) = (h * c01[1][i], h * c23[1][i]);
+            c01[0][i] = x[i];
+            c01[1][i] = f0;
+            c23[0][i] = 3.0 * d - 2.0 * f0 - f1;
+            c23[1][i] = -2.0 * d + f0 + f1;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,168 @@
+//! Exponential Rosenbrock–Euler: order 2 on nonlinear problems, exact on linear ones at any
+//! step, stable on stiff ones, and an adaptive mode whose error follows the tolerance.
+
+use nalgebra::{Const, SVector, vector};
+use reckon::methods::{ExplicitEuler, ExponentialEuler, Method};
+use reckon::problems::*;
+use reckon::studies::fit_order;
+use reckon::{Lti, Options, Problem, System, model};
+
+fn end_error<const N: usize, S: System<Const<N>>>(
+    p: &Problem<'_, Const<N>, S>,
+    h: f64,
+    exact: &SVector<f64, N>,
+) -> f64 {
+    let sol = p
+        .solve(ExponentialEuler::default(), &Options::default().fixed(h))
+        .unwrap();
+    assert_eq!(sol.last().0, p.t_end);
+    (sol.last().1 - exact).amax()
+}
+
+#[test]
+fn second_order_on_nonlinear_problems() {
+    // u' = sin u (autonomous), fixed steps 0.1 … 0.00625, order by least squares
+    let p = Problem::new(sin_u(), vector![1.0], (0.0, 2.0));
+    let exact = sin_u_exact(2.0, 1.0);
+    let hs: Vec<f64> = (0..5).map(|k| 0.1 / 2f64.powi(k)).collect();
+    let errs: Vec<f64> = hs.iter().map(|&h| end_error(&p, h, &exact)).collect();
+    let order = fit_order(&hs, &errs).unwrap();
+    println!("sin u: {errs:?} order {order}");
+    assert!((order - 2.0).abs() <= 0.1, "observed order {order}");
+    // non-autonomous, through ∂f/∂t: x' = −2t·x² has x = 1/(1 + t²) from x(0) = 1 (∂f/∂t from the dual body)
+    let f = model!(|t: S, x: [S; 1]| vector![x[0] * x[0] * t * -2.0]);
+    let q = Problem::new(&f, vector![1.0], (0.0, 2.0));
+    let exact = vector![1.0 / 5.0];
+    let errs: Vec<f64> = hs.iter().map(|&h| end_error(&q, h, &exact)).collect();
+    let order = fit_order(&hs, &errs).unwrap();
+    println!("-2t x²: {errs:?} order {order}");
+    assert!((order - 2.0).abs() <= 0.1, "observed order {order}");
+}
+
+#[test]
+fn exact_on_linear_models_at_any_step() {
+    // rotation–decay x' = A x: one step of any length is the exact flow
+    let x0 = vector![1.0, 0.5];
+    let p = Problem::new(rotation_decay(), x0, (0.0, 6.0));
+    let exact = rotation_decay_exact(6.0, &x0);
+    // (absolute, |x₀| ≈ 1; 120 steps of 0.05 add up 120 roundings, still below 1e-13)
+    for h in [6.0, 1.5, 0.1, 0.05] {
+        let e = end_error(&p, h, &exact);
+        assert!(e <= 1e-13, "h = {h}: {e:e}");
+    }
+    // an LTI model with a held input, stiff (λ = −1e4), h far beyond explicit stability
+    let lti = Lti::new(
+        nalgebra::Matrix2::new(-1e4, 1.0, 0.0, -1.0),
+        nalgebra::Vector2::new(1.0, 1.0),
+    )
+    .unwrap();
+    let p = Problem::new(&lti, vector![1.0, 1.0], (0.0, 2.0)).inputs(vec![3.0]);
+    // x₂ = 3 − 2e^{−t}; x₁ = e^{−λt} + 6(1 − e^{−λt})/λ − 2(e^{−t} − e^{−λt})/(λ − 1), λ = 1e4
+    let (l, t) = (1e4f64, 2.0f64);
+    let want = vector![
+        (-l * t).exp() + 6.0 * (1.0 - (-l * t).exp()) / l - 2.0 * ((-t).exp() - (-l * t).exp()) / (l - 1.0),
+        3.0 - 2.0 * (-t).exp()
+    ];
+    for h in [2.0, 0.5, 0.05] {
+        let sol = p
+            .solve(ExponentialEuler::default(), &Options::default().fixed(h))
+            .unwrap();
+        let e = (sol.last().1 - want).amax() / want.amax();
+        assert!(e <= 1e-13, "h = {h}: {e:e}");
+    }
+    // adaptive: the estimate vanishes on a linear model, so the steps grow freely
+    let sol = p
+        .solve(ExponentialEuler::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .unwrap();
+    assert!((sol.last().1 - want).amax() / want.amax() <= 1e-13);
+    assert!(sol.stats.accepted <= 8, "{} steps", sol.stats.accepted);
+}
+
+#[test]
+fn stable_on_the_stiff_cosine_problem() {
+    // x' = −1000(x − cos t) − sin t, x = cos t: h = 0.1 is 50× explicit Euler's limit
+    let p = Problem::new(stiff_cosine(), vector![1.0], (0.0, 10.0));
+    let sol = p
+        .solve(ExponentialEuler::default(), &Options::default().fixed(0.1))
+        .unwrap();
+    assert_eq!(sol.stats.accepted, 100);
+    let worst = sol
+        .t
+        .iter()
+        .zip(&sol.x)
+        .map(|(t, x)| (x[0] - t.cos()).abs())
+        .fold(0.0, f64::max);
+    println!("stiff cosine at h = 0.1: max error {worst:e}");
+    // stable, and as accurate as the linearisation in t allows: the forcing
+    // g = 1000 cos t − sin t is taken linear over a step, so x lags by about
+    // h²·|g''|/(2·1000) ≤ 5e-3 (without ∂f/∂t it would be h·|g'|/1000 ≈ 0.1)
+    assert!(worst < 5.1e-3, "max error {worst:e}");
+    // explicit Euler at the same step blows up
+    let e = p.solve(ExplicitEuler, &Options::default().fixed(0.1));
+    assert!(e.is_err() || e.unwrap().last().1[0].abs() > 1e10);
+}
+
+#[test]
+fn adaptive_error_follows_the_tolerance() {
+    // Van der Pol (μ = 1) has no closed form: a tight RK45 run is the reference. The
+    // controller keeps the estimated local error per step at the tolerance, so a method
+    // of order 2 has a global error ∝ tol^{2/3} (the steps scale like tol^{1/3}): the
+    // fitted exponent checks the estimate's order and its scale together
+    let p = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 5.0));
+    let reference = *p
+        .solve(
+            reckon::methods::Dopri5::default(),
+            &Options::default().rtol(1e-13).atol(1e-13),
+        )
+        .unwrap()
+        .last()
+        .1;
+    let tols = [1e-5, 1e-6, 1e-7, 1e-8, 1e-9];
+    let mut errs = Vec::new();
+    let mut steps = Vec::new();
+    for tol in tols {
+        let sol = p
+            .solve(ExponentialEuler::default(), &Options::default().rtol(tol).atol(tol))
+            .unwrap();
+        let e = (sol.last().1 - reference).amax();
+        println!(
+            "tol {tol:e}: error {e:e}, {} steps, {} rejected",
+            sol.stats.accepted, sol.stats.rejected
+        );
+        assert_eq!(ExponentialEuler::<Const<2>>::default().name(), sol.method);
+        errs.push(e);
+        steps.push(1.0 / sol.stats.accepted as f64);
+    }
+    let slope = fit_order(&tols, &errs).unwrap();
+    let h_slope = fit_order(&tols, &steps).unwrap();
+    println!("error ∝ tol^{slope:.3}, mean step ∝ tol^{h_slope:.3}");
+    assert!((slope - 2.0 / 3.0).abs() <= 0.1, "error ∝ tol^{slope}");
+    assert!((h_slope - 1.0 / 3.0).abs() <= 0.05, "step ∝ tol^{h_slope}");
+}
+
+#[test]
+fn dense_output_is_hermite_between_the_steps() {
+    // between two accepted steps the cubic Hermite interpolant adds at most h⁴·|x⁗|/384
+    // to the error at the ends (|x⁗| ≤ 2 here)
+    let p = Problem::new(sin_u(), vector![1.0], (0.0, 2.0));
+    let sol = p
+        .solve(
+            ExponentialEuler::default(),
+            &Options::default().rtol(1e-6).atol(1e-6).dense(true),
+        )
+        .unwrap();
+    let err = |t: f64, x: f64| (x - sin_u_exact(t, 1.0)[0]).abs();
+    for k in 1..80 {
+        let t = k as f64 * 0.025;
+        let x = sol.at(t).unwrap()[0];
+        let i = sol.t.iter().position(|&s| s >= t).unwrap().max(1);
+        let (t0, t1) = (sol.t[i - 1], sol.t[i]);
+        let ends = err(t0, sol.x[i - 1][0]).max(err(t1, sol.x[i][0]));
+        let h = t1 - t0;
+        assert!(
+            err(t, x) <= ends * 1.01 + h.powi(4) * 2.0 / 384.0,
+            "t = {t}: {:e} vs ends {ends:e}",
+            err(t, x)
+        );
+    }
+}

@@ -222,6 +222,17 @@ where
     }
 }
 
+/// The model is its own exact flow too (the same as [`Lti::flow`], owned: for
+/// `Exact::new(lti.clone())` where a `'static` flow is needed).
+impl<D: Dim> Flow<D> for Lti<D>
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D>,
+{
+    fn flow(&self, t: f64, x: &OVector<f64, D>, u: &[f64], h: f64, out: &mut OVector<f64, D>) {
+        LtiFlow(self).flow(t, x, u, h, out)
+    }
+}
+
 /// `A·x` at dual `x` plus the constant `B·u`.
 fn affine_dual<D: Dim>(
     a: &OMatrix<f64, D, D>,

@@ -288,8 +288,9 @@ fn halvings(h0: f64, n: usize) -> Vec<f64> {
     (0..n).map(|k| h0 / 2f64.powi(k as i32)).collect()
 }
 
-pub const NAMES: [&str; 14] = [
+pub const NAMES: [&str; 15] = [
     "rotation-decay",
+    "lti",
     "dahlquist",
     "sin-u",
     "stiff-cosine",
@@ -408,6 +409,29 @@ pub fn lookup(name: &str) -> std::result::Result<Box<dyn StudyProblem>, String> 
                 Some(Box::new(move |t| rotation_decay_exact(t, &x0))),
                 (halvings(1.0 / 128.0, 5), halvings(0.2, 4)),
             ))
+        }
+        "lti" => {
+            // damped spring driven by a held force: x'' = −4x − 0.4x' + u
+            let lti = crate::Lti::new(
+                nalgebra::Matrix2::new(0.0, 1.0, -4.0, -0.4),
+                nalgebra::Vector2::new(0.0, 1.0),
+            )
+            .expect("finite matrices of matching sizes");
+            let c = Controls::new(
+                vec![0.0, 1.0, 2.0, 3.0],
+                vec![vec![1.0], vec![-0.5], vec![2.0], vec![0.0]],
+            )
+            .expect("increasing times");
+            let x0 = vector![0.5, 0.0];
+            let mut s = spec(
+                "lti",
+                "damped spring x'' = -4x - 0.4x' + u, u held over four 1-s intervals, x0 = (0.5, 0); exact: the zero-order-hold flow",
+                Problem::new(lti.clone(), x0, (0.0, 4.0)).controls(c.clone()),
+                Some(flow_exact(lti.clone(), lti.clone(), x0, c)),
+                (halvings(1.0 / 128.0, 5), halvings(0.2, 4)),
+            );
+            s.flow = Some(Box::new(lti));
+            Box::new(s)
         }
         "dahlquist" => {
             let f = crate::model!(|_t, x: [S; 1]| vector![x[0] * -2.0]);

@@ -44,7 +44,7 @@ impl Write for Stdout {
 /// Arguments shared by the study commands.
 #[derive(Debug, clap::Args)]
 pub struct Common {
-    /// Problem name (rotation-decay, dahlquist, sin-u, stiff-cosine, arenstorf, lorenz,
+    /// Problem name (rotation-decay, lti, dahlquist, sin-u, stiff-cosine, arenstorf, lorenz,
     /// unicycle, bicycle, carlike, van-der-pol, robertson, orego, hires, brusselator, or
     /// brusselator:N with N from 1 to 5000000 grid points, 2N states).
     #[arg(long)]
@@ -62,7 +62,8 @@ pub struct Common {
 pub struct ConvergenceArgs {
     #[command(flatten)]
     pub common: Common,
-    /// Methods, comma separated (euler, implicit-euler, rk45, exact).
+    /// Methods, comma separated (euler, implicit-euler, rk45, exponential-euler, rodas5p,
+    /// exact).
     #[arg(long, value_delimiter = ',', default_value = "euler,implicit-euler,rk45")]
     pub methods: Vec<String>,
     /// Fixed step sizes, comma separated (default: five halvings suited to the problem).

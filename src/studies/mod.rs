@@ -10,7 +10,7 @@ pub mod work_precision;
 
 use crate::error::{Error, Result};
 use crate::linalg::LuDim;
-use crate::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method, Rodas5P};
+use crate::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, ExponentialEuler, Flow, ImplicitEuler, Method, Rodas5P};
 use crate::{Options, Problem, Solution, Stats, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -56,11 +56,13 @@ pub enum MethodKind {
     Rodas5P,
     /// Dopri5 ⇄ BDF by stiffness detection (adaptive runs only).
     Auto,
+    /// Exponential Rosenbrock–Euler.
+    ExponentialEuler,
 }
 
 impl MethodKind {
     /// All methods, in table order.
-    pub const ALL: [MethodKind; 7] = [
+    pub const ALL: [MethodKind; 8] = [
         MethodKind::Euler,
         MethodKind::ImplicitEuler,
         MethodKind::Rk45,
@@ -68,6 +70,7 @@ impl MethodKind {
         MethodKind::Bdf,
         MethodKind::Rodas5P,
         MethodKind::Auto,
+        MethodKind::ExponentialEuler,
     ];
 
     /// The command-line name.
@@ -80,6 +83,7 @@ impl MethodKind {
             MethodKind::Bdf => "bdf",
             MethodKind::Rodas5P => "rodas5p",
             MethodKind::Auto => "auto",
+            MethodKind::ExponentialEuler => "exponential-euler",
         }
     }
 
@@ -93,6 +97,7 @@ impl MethodKind {
     pub fn order(self) -> Option<f64> {
         match self {
             MethodKind::Euler | MethodKind::ImplicitEuler => Some(1.0),
+            MethodKind::ExponentialEuler => Some(2.0),
             MethodKind::Rk45 | MethodKind::Rodas5P => Some(5.0),
             MethodKind::Exact | MethodKind::Bdf | MethodKind::Auto => None,
         }
@@ -145,6 +150,7 @@ where
         MethodKind::Bdf => problem.solve(Bdf::default(), opts),
         MethodKind::Rodas5P => problem.solve(Rodas5P::default(), opts),
         MethodKind::Auto => problem.solve(Auto::default(), opts),
+        MethodKind::ExponentialEuler => problem.solve(ExponentialEuler::default(), opts),
         MethodKind::Exact => match flow {
             Some(f) => problem.solve(Exact::new(DynFlow(f)), opts),
             None => Err(Error::invalid("method", "this problem has no exact flow")),
@@ -202,6 +208,7 @@ where
         MethodKind::Bdf => drive_method(problem, Bdf::default(), opts, visit),
         MethodKind::Rodas5P => drive_method(problem, Rodas5P::default(), opts, visit),
         MethodKind::Auto => drive_method(problem, Auto::default(), opts, visit),
+        MethodKind::ExponentialEuler => drive_method(problem, ExponentialEuler::default(), opts, visit),
         MethodKind::Exact => match flow {
             Some(f) => drive_method(problem, Exact::new(DynFlow(f)), opts, visit),
             None => Err(Error::invalid("method", "this problem has no exact flow")),

@@ -193,10 +193,18 @@ pub fn run(sc: &Scenario) -> Result<SlamResult> {
     x0.fixed_rows_mut::<3>(0).copy_from(&sc.truth[0]);
     let mut kf = Kalman::new(x0, p0);
     let a = DMatrix::identity(n, n);
+    // the position is x' = R·v with the measured v held over a sample: its error, σ_v per
+    // axis and sample, is a white velocity error of density σ_v²·dt (isotropic, so R drops
+    // out), and Q_d over dt comes from Van Loan's integral of the continuous model
+    // (= (σ_v·dt)² per axis); the landmarks do not move
+    let q_pos = super::discretise_noise(
+        &nalgebra::Matrix3::zeros(),
+        &nalgebra::Matrix3::identity(),
+        &(nalgebra::Matrix3::identity() * (sc.sigma_velocity * sc.sigma_velocity * sc.dt)),
+        sc.dt,
+    )?;
     let mut q = DMatrix::zeros(n, n);
-    for i in 0..3 {
-        q[(i, i)] = (sc.sigma_velocity * sc.dt).powi(2);
-    }
+    q.view_mut((0, 0), (3, 3)).copy_from(&q_pos);
     let mut c_depth = DMatrix::zeros(1, n);
     c_depth[(0, 2)] = 1.0;
     let r_depth = DMatrix::from_element(1, 1, sc.sigma_depth.powi(2));

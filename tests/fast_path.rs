@@ -162,3 +162,31 @@ fn errors_on_the_fast_path_are_the_general_paths() {
     assert_eq!(fast, general);
     assert!(matches!(fast, Error::MaxSteps { steps: 50, .. }), "{fast}");
 }
+
+#[test]
+fn a_span_inside_the_log_switches_inputs_at_the_right_interval() {
+    // the stops are the control times inside the span, borrowed from the log, and stop i
+    // opens interval lo + i: a span starting exactly on a control time, or inside an
+    // interval, and ending before the log does, against a bare loop over the same times
+    let c = log(3.0);
+    let sys = unicycle::model();
+    let times = c.times();
+    for (a, b) in [(times[17], times[N - 40] - 0.0021), (times[17] + 0.0042, times[9000])] {
+        let p = Problem::new(&sys, vector![0.3, -0.1, 0.2], (a, b)).controls(c.clone());
+        let (f, g, s) = both(&p, Exact::new(unicycle::flow), &Options::default());
+        same(&f, &g);
+        assert_eq!(s.len(), f.t.len());
+        let first = times.partition_point(|&t| t <= a);
+        let mut x = vector![0.3, -0.1, 0.2];
+        let (mut t, mut k, mut i) = (a, first - 1, 0);
+        while t < b {
+            let next = times.get(k + 1).copied().filter(|&n| n < b).unwrap_or(b);
+            // the driver's step is measured from t0: (next − t0) − (t − t0)
+            x = unicycle::flow(t, &x, c.values(k).unwrap(), (next - a) - (t - a));
+            i += 1;
+            assert!(f.t[i] == next && f.x[i] == x, "stored step {i} at t = {next}");
+            (t, k) = (next, k + 1);
+        }
+        assert_eq!(i + 1, f.t.len());
+    }
+}

@@ -159,6 +159,9 @@ where
         let (mut stop_idx, mut grid_k) = (self.stop_idx, self.grid_k);
         let mut accepted = 0u64;
         let n_stops = self.stops.len();
+        // an exact flow's step is infinite: one step to each stop, every step on the grid
+        let one_per_stop = fixed_h.is_infinite();
+        let stops_from = self.stops_from;
         macro_rules! sync {
             () => {
                 self.t = t;
@@ -177,8 +180,9 @@ where
                 return Err(Error::MaxSteps { t, steps: attempts });
             }
             // `next_h` for a fixed step: the next grid point, or the stop when it is closer
+            // (always the stop for an exact flow's infinite step)
             let grid = (grid_k + 1) as f64 * dir * fixed_h;
-            let (target, target_tau) = if dir * (grid - stop_tau) >= -1e-10 * fixed_h {
+            let (target, target_tau) = if one_per_stop || dir * (grid - stop_tau) >= -1e-10 * fixed_h {
                 (stop, stop_tau)
             } else {
                 (t0 + grid, grid)
@@ -229,7 +233,7 @@ where
             std::mem::swap(&mut self.x, &mut self.x_new);
             t = target;
             tau = target_tau;
-            if target_tau == grid || (target_tau - grid).abs() <= 1e-10 * fixed_h {
+            if one_per_stop || target_tau == grid || (target_tau - grid).abs() <= 1e-10 * fixed_h {
                 grid_k += 1;
             }
             if target == stop {
@@ -242,13 +246,20 @@ where
                     keep(t, &self.x);
                     return Ok(());
                 }
-                // `enter_segment` with the time in a register
-                if let Some(c) = controls
-                    && let Some(k) = c.segment_near(t, dir, self.segment)
-                    && Some(k) != self.segment
-                {
-                    self.segment = Some(k);
-                    self.f.hold(c.values(k).unwrap_or_default());
+                // `enter_segment` with the time in a register; when the stops are the
+                // control times `lo..` themselves, stop `i` opens interval `lo + i`
+                // (`times[lo + i] = t < times[lo + i + 1]`: what the search finds)
+                if let Some(c) = controls {
+                    let k = match stops_from {
+                        Some(lo) => Some(lo + stop_idx - 1),
+                        None => c.segment_near(t, dir, self.segment),
+                    };
+                    if let Some(k) = k
+                        && Some(k) != self.segment
+                    {
+                        self.segment = Some(k);
+                        self.f.hold(c.values(k).unwrap_or_default());
+                    }
                 }
                 self.method.reset();
                 stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);

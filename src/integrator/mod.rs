@@ -48,8 +48,12 @@ where
     grid_k: u64,
     sub_h: Option<f64>,
     /// Breakpoints strictly inside the span, in the direction of travel; `t_end` is the
-    /// stop after the last of them (kept apart so that a plain run allocates nothing here).
-    stops: Vec<f64>,
+    /// stop after the last of them (kept apart so that a plain run allocates nothing here);
+    /// a control log's own times, borrowed, when nothing else is merged in.
+    stops: std::borrow::Cow<'p, [f64]>,
+    /// `Some(lo)` when `stops` are the control times `lo..` (so stop `i` opens interval
+    /// `lo + i`).
+    stops_from: Option<usize>,
     t_end: f64,
     stop_idx: usize,
     /// A caller's temporary stop ([`Integrator::step_until`]).
@@ -168,14 +172,30 @@ where
         // stops: breakpoints strictly inside the span, in the direction of travel (then t_end)
         let inside = |b: f64| dir * (b - t0) > 0.0 && dir * (t_end - b) > 0.0;
         let mut stops: Vec<f64> = opts.breakpoints.iter().copied().filter(|&b| inside(b)).collect();
-        if let Some(c) = &problem.controls {
-            stops.extend(c.times().iter().copied().filter(|&b| inside(b)));
-        }
-        // (a control log's times are sorted already: a long log skips the sort)
-        if !stops.is_sorted_by(|a, b| dir * a < dir * b) {
-            stops.sort_by(|a, b| (dir * a).total_cmp(&(dir * b)));
-        }
-        stops.dedup();
+        let mut stops_from = None;
+        let stops: std::borrow::Cow<'p, [f64]> = match &problem.controls {
+            // forwards with no breakpoints of its own, the stops are the control times
+            // inside the span: strictly increasing, and (b − t0 and t_end − b being
+            // monotone in b) one contiguous run of them, so a long log is borrowed
+            Some(c) if stops.is_empty() && dir > 0.0 => {
+                let times = c.times();
+                let lo = times.partition_point(|&b| b - t0 <= 0.0);
+                let hi = times.partition_point(|&b| t_end - b > 0.0).max(lo);
+                stops_from = Some(lo);
+                std::borrow::Cow::Borrowed(&times[lo..hi])
+            }
+            controls => {
+                if let Some(c) = controls {
+                    stops.extend(c.times().iter().copied().filter(|&b| inside(b)));
+                }
+                // (a control log's times are sorted already: a long log skips the sort)
+                if !stops.is_sorted_by(|a, b| dir * a < dir * b) {
+                    stops.sort_by(|a, b| (dir * a).total_cmp(&(dir * b)));
+                }
+                stops.dedup();
+                std::borrow::Cow::Owned(stops)
+            }
+        };
 
         let mut f = Eval::new(&problem.system, u);
         f.sparse.choice = opts.linear_solver;
@@ -275,6 +295,7 @@ where
             grid_k: 0,
             sub_h: None,
             stops,
+            stops_from,
             t_end,
             stop_idx: 0,
             until: None,
@@ -663,16 +684,24 @@ where
         // grow into reserved room instead of by repeated doubling (capped at 2²⁴ up front)
         out.reserve((self.stops.len() - self.stop_idx + 1).min(1 << 24));
         let mut dense = Vec::new();
+        // every step kept (the default): the lean loops push directly; the end state
+        // only: they keep nothing, and it is stored once, after they return `Ok` (at
+        // `t_end`: an error returns no solution)
         if self.is_lean() {
-            // every step kept (the default): the lean loop pushes directly
             if out.every_step() {
                 self.run_lean(|t, x| out.push(t, x))?;
+            } else if out.end_only() {
+                self.run_lean(|_, _| {})?;
+                out.step(self.t, &self.x, None);
             } else {
                 self.run_lean(|t, x| out.step(t, x, None))?;
             }
         } else if self.is_lean_fixed() {
             if out.every_step() {
                 self.run_lean_fixed(|t, x| out.push(t, x))?;
+            } else if out.end_only() {
+                self.run_lean_fixed(|_, _| {})?;
+                out.step(self.t, &self.x, None);
             } else {
                 self.run_lean_fixed(|t, x| out.step(t, x, None))?;
             }

@@ -69,6 +69,11 @@ where
         s
     }
 
+    /// Whether only the end state is kept ([`Save::End`]).
+    pub(super) fn end_only(&self) -> bool {
+        self.mode == Mode::End
+    }
+
     /// Whether every step is kept ([`Save::Steps`]).
     pub(super) fn every_step(&self) -> bool {
         self.mode == Mode::Steps

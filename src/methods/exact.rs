@@ -98,8 +98,26 @@ where
                 format!("the flow returned {n} components for a state of {}", x.len()),
             ));
         }
-        finite(x_new.as_slice(), t + h, Quantity::State)?;
+        // the driver checks x_new (and asks `diagnose` where it broke)
         Ok(Outcome::Done { err: 0.0 })
+    }
+    /// A flow evaluates no derivative: a non-finite result is the state at `t + h`.
+    fn diagnose<S: System<D>>(
+        &mut self,
+        _f: &mut Eval<'_, D, S>,
+        t: f64,
+        _x: &OVector<f64, D>,
+        h: f64,
+        x_new: &OVector<f64, D>,
+    ) -> crate::Error {
+        match finite(x_new.as_slice(), t + h, Quantity::State) {
+            Err(e) => e,
+            Ok(()) => crate::Error::NonFinite {
+                t: t + h,
+                quantity: Quantity::State,
+                component: 0,
+            },
+        }
     }
     fn dense_len(&self) -> usize {
         4

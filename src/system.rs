@@ -874,8 +874,9 @@ where
     DefaultAllocator: Allocator<D>,
 {
     sys: &'a S,
-    /// Inputs held over the current control interval.
-    pub(crate) u: Vec<f64>,
+    /// Inputs held over the current control interval: a control log's row, borrowed,
+    /// or the caller's own values.
+    pub(crate) u: std::borrow::Cow<'a, [f64]>,
     /// Counters.
     pub stats: Stats,
     /// A wrong-length result from an unchecked call, reported by the driver when it
@@ -893,7 +894,7 @@ where
     pub(crate) fn new(sys: &'a S, u: Vec<f64>) -> Self {
         Eval {
             sys,
-            u,
+            u: std::borrow::Cow::Owned(u),
             stats: Stats::default(),
             fault: None,
             sparse: Default::default(),
@@ -906,23 +907,20 @@ where
         self.sys
     }
 
-    /// Hold the inputs `v` from now on: copied element by element when the count is
-    /// unchanged (a control log's rows: no allocation, no `memcpy` call per interval).
-    #[inline(always)]
+    /// Hold the inputs `v` from now on (the caller's values: copied into the owned
+    /// buffer, which is reused while the count is unchanged).
     pub(crate) fn hold(&mut self, v: &[f64]) {
-        if v.len() == self.u.len() {
-            // an indexed copy: a few inputs in registers, no call to memcpy (which
-            // `copy_from_slice` makes for a length not known at compile time: 14 → 7
-            // instructions per switch for two inputs, measured with callgrind)
-            let d = &mut self.u[..v.len()];
-            #[allow(clippy::manual_memcpy)]
-            for i in 0..v.len() {
-                d[i] = v[i];
-            }
-        } else {
-            self.u.clear();
-            self.u.extend_from_slice(v);
+        match &mut self.u {
+            std::borrow::Cow::Owned(o) if o.len() == v.len() => o.copy_from_slice(v),
+            _ => self.u = std::borrow::Cow::Owned(v.to_vec()),
         }
+    }
+
+    /// Hold a control log's row `v` from now on: borrowed, nothing copied (one store of
+    /// a slice per interval of a long log).
+    #[inline(always)]
+    pub(crate) fn hold_row(&mut self, v: &'a [f64]) {
+        self.u = std::borrow::Cow::Borrowed(v);
     }
 
     /// `dx ← f(t, x)`, counted but not checked: for explicit kernels whose step result

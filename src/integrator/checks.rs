@@ -10,19 +10,20 @@ use crate::system::System;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim};
 
-impl<D: Dim, S: System<D>, M: Method<D>> Integrator<'_, '_, D, S, M>
+impl<'p, D: Dim, S: System<D>, M: Method<D>> Integrator<'p, '_, D, S, M>
 where
     DefaultAllocator: Allocator<D>,
 {
     /// At a breakpoint: switch to the inputs of the interval ahead and tell the method.
     #[inline(always)]
     pub(super) fn enter_segment(&mut self) {
-        if let Some(c) = &self.problem.controls
+        let problem: &'p _ = self.problem;
+        if let Some(c) = &problem.controls
             && let Some(k) = c.segment_near(self.t, self.dir, self.segment)
             && Some(k) != self.segment
         {
             self.segment = Some(k);
-            self.f.hold(c.values(k).unwrap_or_default());
+            self.f.hold_row(c.values(k).unwrap_or_default());
         }
         self.method.reset();
     }

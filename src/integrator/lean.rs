@@ -151,7 +151,22 @@ where
     /// the steps, times, input switches, counters and errors of [`step`](Self::step),
     /// bit for bit, with the time, the next stop, the grid index and the counters in
     /// locals (`arrive` and `enter_segment` written out around them).
-    pub(super) fn run_lean_fixed(&mut self, mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
+    pub(super) fn run_lean_fixed(&mut self, keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
+        // an exact flow's step is infinite: one step to each stop, every step on the grid
+        // (a loop of its own, without the grid arithmetic)
+        if self.fixed_h.is_infinite() {
+            self.run_lean_fixed_with::<true>(keep)
+        } else {
+            self.run_lean_fixed_with::<false>(keep)
+        }
+    }
+
+    /// [`run_lean_fixed`](Self::run_lean_fixed) with `ONE_PER_STOP = fixed_h.is_infinite()`.
+    #[inline(always)]
+    fn run_lean_fixed_with<const ONE_PER_STOP: bool>(
+        &mut self,
+        mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>),
+    ) -> Result<()> {
         let t0 = self.problem.t0;
         let (dir, fixed_h, max_steps) = (self.dir, self.fixed_h, self.max_steps);
         let controls = self.problem.controls.as_ref();
@@ -159,8 +174,6 @@ where
         let (mut stop_idx, mut grid_k) = (self.stop_idx, self.grid_k);
         let mut accepted = 0u64;
         let n_stops = self.stops.len();
-        // an exact flow's step is infinite: one step to each stop, every step on the grid
-        let one_per_stop = fixed_h.is_infinite();
         let stops_from = self.stops_from;
         macro_rules! sync {
             () => {
@@ -181,8 +194,12 @@ where
             }
             // `next_h` for a fixed step: the next grid point, or the stop when it is closer
             // (always the stop for an exact flow's infinite step)
-            let grid = (grid_k + 1) as f64 * dir * fixed_h;
-            let (target, target_tau) = if one_per_stop || dir * (grid - stop_tau) >= -1e-10 * fixed_h {
+            let grid = if ONE_PER_STOP {
+                f64::INFINITY
+            } else {
+                (grid_k + 1) as f64 * dir * fixed_h
+            };
+            let (target, target_tau) = if ONE_PER_STOP || dir * (grid - stop_tau) >= -1e-10 * fixed_h {
                 (stop, stop_tau)
             } else {
                 (t0 + grid, grid)
@@ -233,7 +250,7 @@ where
             std::mem::swap(&mut self.x, &mut self.x_new);
             t = target;
             tau = target_tau;
-            if one_per_stop || target_tau == grid || (target_tau - grid).abs() <= 1e-10 * fixed_h {
+            if ONE_PER_STOP || target_tau == grid || (target_tau - grid).abs() <= 1e-10 * fixed_h {
                 grid_k += 1;
             }
             if target == stop {
@@ -258,7 +275,7 @@ where
                         && Some(k) != self.segment
                     {
                         self.segment = Some(k);
-                        self.f.hold(c.values(k).unwrap_or_default());
+                        self.f.hold_row(c.values(k).unwrap_or_default());
                     }
                 }
                 self.method.reset();

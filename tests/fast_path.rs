@@ -190,3 +190,63 @@ fn a_span_inside_the_log_switches_inputs_at_the_right_interval() {
         assert_eq!(i + 1, f.t.len());
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(96))]
+    /// Random logs and spans: the borrowed stops with stop i opening interval lo + i give
+    /// what the merged, searched stops give (a breakpoint on one of the control times
+    /// inside the span forces that path and changes no stop), for `Exact` and for
+    /// explicit Euler, and what a bare loop gives for `Exact`.
+    #[test]
+    fn borrowed_stops_equal_merged_stops(
+        gaps in proptest::collection::vec(0.001f64..0.5, 1..40),
+        start in 0.0f64..1.0,
+        len in 0.0f64..1.2,
+        h in 0.003f64..0.4,
+    ) {
+        let mut times = vec![2.0];
+        for g in &gaps {
+            let last = *times.last().unwrap();
+            times.push(last + g);
+        }
+        let values: Vec<Vec<f64>> = (0..times.len())
+            .map(|k| vec![1.0 + 0.1 * k as f64, 0.7 - 0.05 * k as f64])
+            .collect();
+        let c = Controls::new(times.clone(), values).unwrap();
+        let span_all = times[times.len() - 1] + 0.3 - times[0];
+        let a = times[0] + start * span_all;
+        let b = a + len.max(1e-3) * span_all;
+        let sys = unicycle::model();
+        let p = Problem::new(&sys, vector![0.1, 0.2, 0.3], (a, b)).controls(c.clone());
+        let inside: Vec<f64> = times.iter().copied().filter(|&t| t > a && t < b).collect();
+        for (method_is_exact, opts) in [(true, Options::default()), (false, Options::default().fixed(h))] {
+            let merged_opts = match inside.first() {
+                Some(&t) => opts.clone().breakpoints([t]),
+                None => opts.clone(),
+            };
+            let (fast, merged) = if method_is_exact {
+                (
+                    p.solve(Exact::new(unicycle::flow), &opts).unwrap(),
+                    p.solve(Exact::new(unicycle::flow), &merged_opts).unwrap(),
+                )
+            } else {
+                (p.solve(ExplicitEuler, &opts).unwrap(), p.solve(ExplicitEuler, &merged_opts).unwrap())
+            };
+            same(&fast, &merged);
+            if method_is_exact {
+                // one step per interval: x ← φ(x, u_k, (next − a) − (t − a))
+                let mut x = vector![0.1, 0.2, 0.3];
+                let (mut t, mut i) = (a, 0);
+                let mut k = times.partition_point(|&s| s <= a) - 1;
+                while t < b {
+                    let next = times.get(k + 1).copied().filter(|&s| s < b).unwrap_or(b);
+                    x = unicycle::flow(t, &x, c.values(k).unwrap(), (next - a) - (t - a));
+                    i += 1;
+                    proptest::prop_assert!(fast.t[i] == next && fast.x[i] == x, "step {} at {}", i, next);
+                    (t, k) = (next, k + 1);
+                }
+                proptest::prop_assert_eq!(i + 1, fast.t.len());
+            }
+        }
+    }
+}

@@ -3,8 +3,8 @@
 
 use super::{Method, Outcome};
 use crate::control::Weights;
-use crate::error::{Quantity, Result};
-use crate::system::{Eval, System, finite};
+use crate::error::Result;
+use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
@@ -110,14 +110,7 @@ where
         h: f64,
         x_new: &OVector<f64, D>,
     ) -> crate::Error {
-        match finite(x_new.as_slice(), t + h, Quantity::State) {
-            Err(e) => e,
-            Ok(()) => crate::Error::NonFinite {
-                t: t + h,
-                quantity: Quantity::State,
-                component: 0,
-            },
-        }
+        super::state_error(x_new, t + h)
     }
     fn dense_len(&self) -> usize {
         4

@@ -141,14 +141,7 @@ where
         if let Err(e) = f.rhs(t, x, &mut k) {
             return e;
         }
-        match crate::system::finite(x_new.as_slice(), t + h, crate::error::Quantity::State) {
-            Err(e) => e,
-            Ok(()) => crate::Error::NonFinite {
-                t: t + h,
-                quantity: crate::error::Quantity::State,
-                component: 0,
-            },
-        }
+        state_error(x_new, t + h)
     }
     /// A method that picks its own next step (variable order: BDF compares the error
     /// estimates of neighbouring orders) returns the factor for the next `|h|` after an
@@ -167,5 +160,21 @@ where
     /// (before `accept`), for stiffness detection; `None` if the method has none.
     fn stiffness(&self, _h: f64, _x_new: &OVector<f64, D>) -> Option<f64> {
         None
+    }
+}
+
+/// The error for a non-finite step result `x_new` at `t`: its first non-finite component,
+/// or component 0 when every component is finite (the estimate was the non-finite one).
+pub(crate) fn state_error<D: Dim>(x_new: &OVector<f64, D>, t: f64) -> crate::Error
+where
+    DefaultAllocator: Allocator<D>,
+{
+    match crate::system::finite(x_new.as_slice(), t, crate::error::Quantity::State) {
+        Err(e) => e,
+        Ok(()) => crate::Error::NonFinite {
+            t,
+            quantity: crate::error::Quantity::State,
+            component: 0,
+        },
     }
 }

@@ -64,6 +64,10 @@ impl Controls {
     pub fn times(&self) -> &[f64] {
         &self.times
     }
+    /// Every row of inputs, in time order.
+    pub(crate) fn rows(&self) -> &[Vec<f64>] {
+        &self.values
+    }
     /// Inputs of interval `k` (`None` past the last sample).
     pub fn values(&self, k: usize) -> Option<&[f64]> {
         self.values.get(k).map(|v| v.as_slice())

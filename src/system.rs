@@ -920,7 +920,11 @@ where
     /// a slice per interval of a long log).
     #[inline(always)]
     pub(crate) fn hold_row(&mut self, v: &'a [f64]) {
-        self.u = std::borrow::Cow::Borrowed(v);
+        match &mut self.u {
+            // the usual case on a log: a row replaces a row, two stores
+            std::borrow::Cow::Borrowed(r) => *r = v,
+            u => *u = std::borrow::Cow::Borrowed(v),
+        }
     }
 
     /// `dx ← f(t, x)`, counted but not checked: for explicit kernels whose step result

@@ -90,7 +90,7 @@ where
                 }
                 Outcome::Done { err } => err,
             };
-            if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
+            if err.is_nan() || super::has_non_finite(&self.x_new) {
                 sync!();
                 return Err(self.non_finite(h));
             }
@@ -154,27 +154,42 @@ where
     pub(super) fn run_lean_fixed(&mut self, keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
         // an exact flow's step is infinite: one step to each stop, every step on the grid
         // (a loop of its own, without the grid arithmetic)
-        if self.fixed_h.is_infinite() {
-            self.run_lean_fixed_with::<true>(keep)
-        } else {
-            self.run_lean_fixed_with::<false>(keep)
+        // and when the stops are a control log's own times (forwards, no breakpoints),
+        // a loop that opens the next row at every stop, with `dir = 1` known
+        let rows = self.stops_from.is_some() && self.problem.controls.is_some();
+        match (self.fixed_h.is_infinite(), rows) {
+            (true, true) => self.run_lean_fixed_with::<true, true>(keep),
+            (true, false) => self.run_lean_fixed_with::<true, false>(keep),
+            (false, true) => self.run_lean_fixed_with::<false, true>(keep),
+            (false, false) => self.run_lean_fixed_with::<false, false>(keep),
         }
     }
 
-    /// [`run_lean_fixed`](Self::run_lean_fixed) with `ONE_PER_STOP = fixed_h.is_infinite()`.
+    /// [`run_lean_fixed`](Self::run_lean_fixed) with `ONE_PER_STOP = fixed_h.is_infinite()`
+    /// and `ROWS`: the stops are the control times `lo..` (`stops_from = Some(lo)`, which
+    /// the driver sets only forwards).
     #[inline(always)]
-    fn run_lean_fixed_with<const ONE_PER_STOP: bool>(
+    fn run_lean_fixed_with<const ONE_PER_STOP: bool, const ROWS: bool>(
         &mut self,
         mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>),
     ) -> Result<()> {
         let t0 = self.problem.t0;
-        let (dir, fixed_h, max_steps) = (self.dir, self.fixed_h, self.max_steps);
+        let dir = if ROWS { 1.0 } else { self.dir };
+        let (fixed_h, max_steps) = (self.fixed_h, self.max_steps);
+        let signed_h = dir * fixed_h;
         let controls = self.problem.controls.as_ref();
+        // stop `i` opens interval `lo + i` (`times[lo + i] = t < times[lo + i + 1]`: what
+        // the search finds)
+        let lo = self.stops_from.unwrap_or(0);
+        let rows = if ROWS {
+            controls.map_or(&[][..], |c| c.rows().get(lo..).unwrap_or_default())
+        } else {
+            &[]
+        };
         let (mut t, mut tau, mut attempts) = (self.t, self.tau, self.attempts);
         let (mut stop_idx, mut grid_k) = (self.stop_idx, self.grid_k);
         let mut accepted = 0u64;
         let n_stops = self.stops.len();
-        let stops_from = self.stops_from;
         macro_rules! sync {
             () => {
                 self.t = t;
@@ -197,7 +212,7 @@ where
             let grid = if ONE_PER_STOP {
                 f64::INFINITY
             } else {
-                (grid_k + 1) as f64 * dir * fixed_h
+                super::grid_point(grid_k, signed_h)
             };
             let (target, target_tau) = if ONE_PER_STOP || dir * (grid - stop_tau) >= -1e-10 * fixed_h {
                 (stop, stop_tau)
@@ -238,7 +253,7 @@ where
                     return Err(e);
                 }
             };
-            if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
+            if err.is_nan() || super::has_non_finite(&self.x_new) {
                 sync!();
                 return Err(self.non_finite(h));
             }
@@ -263,20 +278,17 @@ where
                     keep(t, &self.x);
                     return Ok(());
                 }
-                // `enter_segment` with the time in a register; when the stops are the
-                // control times `lo..` themselves, stop `i` opens interval `lo + i`
-                // (`times[lo + i] = t < times[lo + i + 1]`: what the search finds)
-                if let Some(c) = controls {
-                    let k = match stops_from {
-                        Some(lo) => Some(lo + stop_idx - 1),
-                        None => c.segment_near(t, dir, self.segment),
-                    };
-                    if let Some(k) = k
-                        && Some(k) != self.segment
-                    {
-                        self.segment = Some(k);
-                        self.f.hold_row(c.values(k).unwrap_or_default());
-                    }
+                // `enter_segment` with the time in a register
+                if ROWS {
+                    // a new row at every stop
+                    self.segment = Some(lo + stop_idx - 1);
+                    self.f.hold_row(rows.get(stop_idx - 1).map_or(&[], |r| r.as_slice()));
+                } else if let Some(c) = controls
+                    && let Some(k) = c.segment_near(t, dir, self.segment)
+                    && Some(k) != self.segment
+                {
+                    self.segment = Some(k);
+                    self.f.hold_row(c.values(k).unwrap_or_default());
                 }
                 self.method.reset();
                 stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);

@@ -431,7 +431,7 @@ where
             }
             return (h, None);
         }
-        let grid = (self.grid_k + 1) as f64 * self.dir * self.fixed_h;
+        let grid = grid_point(self.grid_k, self.dir * self.fixed_h);
         let (target, target_tau) = if self.dir * (grid - stop_tau) >= -1e-10 * self.fixed_h {
             (stop, stop_tau)
         } else {
@@ -490,7 +490,7 @@ where
             };
             // explicit kernels evaluate f unchecked: every result is checked here, once
             // (v·0 is NaN exactly when v is ±∞ or NaN; the sum of zeros cannot overflow)
-            if err.is_nan() || self.x_new.iter().fold(0.0, |a, v| a + v * 0.0).is_nan() {
+            if err.is_nan() || has_non_finite(&self.x_new) {
                 return Err(self.non_finite(h));
             }
             if self.adaptive && err > 1.0 {
@@ -663,7 +663,7 @@ where
             self.propose(h, err, land.is_some());
         } else {
             self.sub_h = None;
-            let grid = (self.grid_k + 1) as f64 * self.dir * self.fixed_h;
+            let grid = grid_point(self.grid_k, self.dir * self.fixed_h);
             if land.is_some() && (tau_new == grid || (tau_new - grid).abs() <= 1e-10 * self.fixed_h) {
                 self.grid_k += 1;
             }
@@ -767,4 +767,23 @@ fn check_inputs(u: &[f64], n_in: usize) -> Result<()> {
 /// A number for a message (see [`Brief`](crate::error::Brief)).
 pub(crate) fn brief(v: f64) -> String {
     crate::error::Brief(v).to_string()
+}
+
+/// The fixed-step grid's point `k + 1` from the start, `τ = (k + 1)·(±h)`: the count
+/// converted through `i64` (one `cvtsi2sd`; `u64 → f64` takes six instructions without
+/// AVX-512), which is the same value for every count below 2⁶³, and `dir·h` is exact.
+#[inline(always)]
+pub(super) fn grid_point(k: u64, signed_h: f64) -> f64 {
+    (k + 1) as i64 as f64 * signed_h
+}
+
+/// Whether `x` holds a NaN or ±∞: `Σ v·0` is NaN exactly then (`v·0 = ±0` for a finite
+/// `v`), without a branch per component; the sum starts from −0, which `−0 + a = a`
+/// lets the compiler drop.
+#[inline(always)]
+pub(super) fn has_non_finite<D: Dim>(x: &OVector<f64, D>) -> bool
+where
+    DefaultAllocator: Allocator<D>,
+{
+    x.iter().fold(-0.0, |a, v| a + v * 0.0).is_nan()
 }

@@ -13,10 +13,20 @@
 //! stages are linear in `f`, so differentiating the step and stepping the variational
 //! system are the same computation) — for [`Dopri5`](crate::methods::Dopri5),
 //! [`ExplicitEuler`](crate::methods::ExplicitEuler) and [`Exact`](crate::methods::Exact)
-//! to rounding; for [`ImplicitEuler`](crate::methods::ImplicitEuler) and
-//! [`Bdf`](crate::methods::Bdf) it is the derivative of the solution of the discrete
-//! implicit equations (the implicit function theorem), to the Newton tolerance, because
-//! Newton's iterate is not the exact root. [`Rodas5P`](crate::methods::Rodas5P) and
+//! to rounding; for [`Bdf`](crate::methods::Bdf) it is the derivative of the solution of
+//! the discrete implicit equations (the implicit function theorem), to the Newton
+//! tolerance, because Newton's iterate is not the exact root.
+//!
+//! **Implicit Euler: the staggered direct scheme.** [`ImplicitEuler`](crate::methods::ImplicitEuler)
+//! does not integrate the augmented system (unless `S` is in the error control): it takes
+//! the plain solve's steps — so `x`, the times and the step count are the plain solve's,
+//! bit for bit — and after each accepted step `x₁ = x₀ + h·f(t + h, x₁)` solves for the
+//! step's exact derivative, `(I − h·J(x₁))·S₁ = S₀ + h·[0 | ∂f/∂p (x₁)]`, with `J` and
+//! `∂f/∂p` from one dual evaluation at the computed `x₁` and `I − h·J` factored once
+//! (Caracotsios & Stewart 1985). `S` is then the implicit function theorem's derivative
+//! of the implicit Euler map on the steps taken, to rounding, whatever Newton's tolerance;
+//! the cost is one dual evaluation, one `n × n` LU and `m` back-substitutions per step
+//! on top of the plain solve. At output times `S` is the step's linear interpolant, as `x` is. [`Rodas5P`](crate::methods::Rodas5P) and
 //! [`ExponentialEuler`](crate::methods::ExponentialEuler) have the Jacobian in their formula, so the derivative of its step needs the second derivatives
 //! `∂(J·S + [0 | ∂f/∂p])/∂x` (the lower-left block of the augmented Jacobian): these are
 //! central differences of the exact dual `J·S` (relative error about 1e-10, the one
@@ -45,7 +55,9 @@
 
 use crate::control::Tolerance;
 use crate::error::{Error, Result};
-use crate::methods::{Exact, Flow, Method};
+use crate::integrator::save::Saver;
+use crate::linalg::{Lu, LuDim};
+use crate::methods::{Exact, Flow, ImplicitEuler, Method};
 use crate::options::Options;
 use crate::problem::Problem;
 use crate::solution::{Solution, Stats};
@@ -289,6 +301,21 @@ where
     type Method: Method<Dyn>;
     /// For a state of `n` components and a model of `n_params` parameters.
     fn augment(self, n: usize, n_params: usize) -> Result<Self::Method>;
+    /// Sensitivities by a scheme of the method's own instead of the augmented system
+    /// (`None`: integrate the augmented system). [`ImplicitEuler`](crate::methods::ImplicitEuler)
+    /// without [`SensitivityOptions::error_control`] takes the staggered direct scheme
+    /// (see [`solve`]).
+    fn direct<S: DualSystem<D>>(
+        &self,
+        _problem: &Problem<'_, D, S>,
+        _opts: &Options,
+        _sens: &SensitivityOptions,
+    ) -> Option<Result<Sensitivities<D>>>
+    where
+        DefaultAllocator: Allocator<D, D> + Allocator<U1, D>,
+    {
+        None
+    }
 }
 
 macro_rules! augment_as_is {
@@ -308,12 +335,181 @@ macro_rules! augment_as_is {
 augment_as_is!(
     crate::methods::ExplicitEuler,
     crate::methods::Dopri5<Dyn>,
-    crate::methods::ImplicitEuler<Dyn>,
     crate::methods::Bdf<Dyn>,
     crate::methods::Rodas5P<Dyn>,
     crate::methods::ExponentialEuler<Dyn>,
     crate::methods::Auto<Dyn>
 );
+
+/// Implicit Euler: the augmented system when the sensitivities are in the error
+/// control, otherwise the staggered direct scheme ([`solve`]), which needs the plain
+/// method at `D` (`D: LuDim`, as a plain implicit Euler solve does).
+impl<D: LuDim> Augment<D> for ImplicitEuler<Dyn>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    type Method = ImplicitEuler<Dyn>;
+    fn augment(self, _n: usize, _n_params: usize) -> Result<Self::Method> {
+        Ok(self)
+    }
+    fn direct<S: DualSystem<D>>(
+        &self,
+        problem: &Problem<'_, D, S>,
+        opts: &Options,
+        sens: &SensitivityOptions,
+    ) -> Option<Result<Sensitivities<D>>>
+    where
+        DefaultAllocator: Allocator<D, D> + Allocator<U1, D>,
+    {
+        (!sens.error_control).then(|| staggered_implicit_euler(problem, ImplicitEuler::<D>::new(self.newton), opts, sens))
+    }
+}
+
+/// The staggered direct scheme for implicit Euler (Caracotsios & Stewart 1985): the plain
+/// solve's steps, and after each accepted step `x₁ = x₀ + h·f(t + h, x₁)` one linear solve
+/// for its derivative, `(I − h·J(x₁))·S₁ = S₀ + h·[0 | ∂f/∂p (x₁)]`, with `J` and `∂f/∂p`
+/// exact at the computed `x₁` (one dual evaluation) and `I − h·J` factored once.
+fn staggered_implicit_euler<D: LuDim, S: DualSystem<D>>(
+    problem: &Problem<'_, D, S>,
+    method: ImplicitEuler<D>,
+    opts: &Options,
+    sens: &SensitivityOptions,
+) -> Result<Sensitivities<D>>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    let n = problem.x0.len();
+    let np = problem.system.n_params();
+    let (m, x0_cols) = match sens.wrt {
+        Wrt::All => (n + np, n),
+        Wrt::Params => (np, 0),
+    };
+    let r = D::from_usize(n);
+    let dir = (problem.t_end - problem.t0).signum();
+    let mut it = problem.integrator(method, opts)?;
+    // z = (x, vec S), the stacked state the saver keeps (as the augmented solve's)
+    let mut z = DVector::zeros(n * (1 + m));
+    z.rows_mut(0, n).copy_from_slice(problem.x0.as_slice());
+    for i in 0..x0_cols {
+        z[n + i + i * n] = 1.0;
+    }
+    let mut out = Saver::<Dyn>::new(&opts.save, dir, problem.t0, &z);
+    let at_times = Saver::<Dyn>::needs_dense(&opts.save);
+    // the step's linear interpolant in z (implicit Euler's dense output, c₀ + θ·c₁)
+    let mut dense = [z.clone(), DVector::zeros(z.len())];
+    let mut seg = (problem.t0, 0.0);
+    // [I | 0] → [J | ∂f/∂p]: one dual evaluation with n + n_p directions
+    let mut unit = vec![0.0; n * (n + np)];
+    for i in 0..n {
+        unit[i + i * n] = 1.0;
+    }
+    let mut jp = vec![0.0; n * (n + np)];
+    let mut fx = OVector::<f64, D>::zeros_generic(r, U1);
+    let mut mat = OMatrix::<f64, D, D>::zeros_generic(r, r);
+    let mut col = OVector::<f64, D>::zeros_generic(r, U1);
+    let mut u = it.held_inputs().to_vec();
+    let mut extra = 0u64;
+    loop {
+        u.clear();
+        u.extend_from_slice(it.held_inputs());
+        let accepted = it.stats().accepted;
+        if it.step()?.is_none() {
+            break;
+        }
+        if it.stats().accepted > accepted {
+            let (t, h, _) = it.last_step();
+            let x1 = it.x();
+            // the time implicit Euler evaluated f at
+            let t1 = t + h;
+            problem
+                .system
+                .rhs_sensitivity(t1, x1, &u, &unit, n + np, &mut fx, &mut jp);
+            for c in 0..n {
+                for i in 0..n {
+                    mat[(i, c)] = -h * jp[i + c * n];
+                }
+                mat[(c, c)] += 1.0;
+            }
+            extra += 1;
+            let lu = D::Lu::factor(&mat).ok_or(Error::SingularMatrix { t, h })?;
+            if at_times {
+                dense[0].copy_from(&z);
+            }
+            let sz = &mut z.as_mut_slice()[n..];
+            for k in 0..m {
+                let s_col = &mut sz[k * n..(k + 1) * n];
+                col.as_mut_slice().copy_from_slice(s_col);
+                if k >= x0_cols {
+                    let fp = &jp[(n + k - x0_cols) * n..(n + k - x0_cols + 1) * n];
+                    for i in 0..n {
+                        col[i] += h * fp[i];
+                    }
+                }
+                lu.solve_in_place(&mut col);
+                s_col.copy_from_slice(col.as_slice());
+            }
+            if sz.iter().any(|v| !v.is_finite()) {
+                return Err(Error::NonFinite {
+                    t: t1,
+                    quantity: crate::error::Quantity::State,
+                    component: n + sz.iter().position(|v| !v.is_finite()).unwrap_or(0),
+                });
+            }
+            z.rows_mut(0, n).copy_from_slice(x1.as_slice());
+            if at_times {
+                let [c0, c1] = &mut dense;
+                c1.copy_from(&z);
+                *c1 -= &*c0;
+            }
+            seg = (t, h);
+        } else {
+            // a stop landed on without a step: the same state, a new time
+            z.rows_mut(0, n).copy_from_slice(it.x().as_slice());
+        }
+        out.step(it.t(), &z, at_times.then_some((seg.0, seg.1, &dense[..])));
+    }
+    let mut stats = it.stats();
+    stats.jacobian_evals += extra;
+    stats.lu_decompositions += extra;
+    let (t, zs) = out.finish();
+    Ok(unstack(t, zs, n, m, sens.wrt, np, stats, "implicit-euler"))
+}
+
+/// The saved stacked states `(x, vec S)` as [`Sensitivities`]: each `S` takes over its
+/// stacked state's buffer (the `x` part shifted out), so nothing is allocated per point.
+#[allow(clippy::too_many_arguments)]
+fn unstack<D: Dim>(
+    t: Vec<f64>,
+    zs: Vec<DVector<f64>>,
+    n: usize,
+    m: usize,
+    wrt: Wrt,
+    n_params: usize,
+    stats: Stats,
+    method: &'static str,
+) -> Sensitivities<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let r = D::from_usize(n);
+    let mut x = Vec::with_capacity(zs.len());
+    let mut s = Vec::with_capacity(zs.len());
+    for z in zs {
+        x.push(OVector::<f64, D>::from_column_slice_generic(r, U1, &z.as_slice()[..n]));
+        let mut v: Vec<f64> = z.data.into();
+        v.drain(..n);
+        s.push(DMatrix::from_vec(n, m, v));
+    }
+    Sensitivities {
+        x,
+        s,
+        t,
+        wrt,
+        n_params,
+        stats,
+        method,
+    }
+}
 
 impl<D: Dim, F: DualFlow<D>> Augment<D> for Exact<F>
 where
@@ -428,6 +624,9 @@ where
             "sensitivities with respect to the parameters of a model without a parameter block",
         ));
     }
+    if let Some(direct) = method.direct(problem, opts, sens) {
+        return direct;
+    }
     let method = method.augment(n, np)?;
     let aug = Augmented::new(&problem.system, n, sens.wrt);
     let m = aug.m;
@@ -458,22 +657,5 @@ where
         o.error_components = Some(opts.error_components.unwrap_or(n).min(n));
     }
     let sol: Solution<Dyn> = ap.solve(method, &o)?;
-    let r = D::from_usize(n);
-    Ok(Sensitivities {
-        x: sol
-            .x
-            .iter()
-            .map(|z| OVector::<f64, D>::from_column_slice_generic(r, U1, &z.as_slice()[..n]))
-            .collect(),
-        s: sol
-            .x
-            .iter()
-            .map(|z| DMatrix::from_column_slice(n, m, &z.as_slice()[n..]))
-            .collect(),
-        t: sol.t,
-        wrt: sens.wrt,
-        n_params: np,
-        stats: sol.stats,
-        method: sol.method,
-    })
+    Ok(unstack(sol.t, sol.x, n, m, sens.wrt, np, sol.stats, sol.method))
 }

@@ -5,7 +5,10 @@ use nalgebra::{DMatrix, Matrix2, SVector, Vector2, vector};
 use reckon::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, ImplicitEuler, Rodas5P};
 use reckon::models::unicycle;
 use reckon::sensitivity::{self, Augment, Sensitivities, SensitivityOptions, Wrt};
-use reckon::{Controls, DualSystem, Error, Event, Options, Problem, model};
+use reckon::{Controls, DualSystem, Error, Event, Options, Problem, Save, model};
+
+#[path = "common/drives.rs"]
+mod drives;
 
 fn sens<S: DualSystem<nalgebra::Const<N>>, M: Augment<nalgebra::Const<N>>, const N: usize>(
     p: &Problem<'_, nalgebra::Const<N>, S>,
@@ -53,6 +56,10 @@ fn linear_system_gives_the_matrix_exponential() {
 
 /// For a linear model every method's step is linear in `x`, so the computed solution is
 /// `x_N = S_N x₀` exactly: the discrete sensitivity is the method's own propagator.
+/// Adaptive implicit Euler is the exception, by design: its `S` comes from the staggered
+/// scheme, the exact derivative of the implicit Euler map `(I − hA)⁻¹` on the steps taken,
+/// while its `x` is Newton's iterate (a stale LU leaves it within the Newton tolerance of
+/// that map's image), so there `S` is checked against the product of the `(I − h_kA)⁻¹`.
 #[test]
 fn linear_system_sensitivity_is_the_discrete_propagator_for_every_method() {
     let f = linear();
@@ -74,7 +81,22 @@ fn linear_system_sensitivity_is_the_discrete_propagator_for_every_method() {
         ("rodas5p, fixed", sens(&p, Rodas5P::default(), &fixed)),
         ("rodas5p, adaptive", sens(&p, Rodas5P::default(), &adaptive)),
     ];
+    let a = Matrix2::new(-1.0, 1.0, 0.0, -2.0);
     for (name, s) in &runs {
+        if *name == "implicit euler, adaptive" {
+            let mut prop = Matrix2::identity();
+            for k in 1..s.t.len() {
+                let h = s.t[k] - s.t[k - 1];
+                prop = (Matrix2::identity() - a * h).try_inverse().unwrap() * prop;
+                let e = max_rel(&s.wrt_x0(k), &DMatrix::from_column_slice(2, 2, prop.as_slice()));
+                // rounding over the steps (h from the saved times, a few ulp per step)
+                assert!(e < 1e-12, "{name}: S differs from Π(I − hA)⁻¹ by {e:e} at t = {}", s.t[k]);
+            }
+            // and x is the plain solve's, step for step, bit for bit
+            let plain = p.solve(ImplicitEuler::default(), &adaptive).unwrap();
+            assert_eq!((&plain.t, &plain.x), (&s.t, &s.x), "{name}: x is not the plain solve's");
+            continue;
+        }
         for k in 0..s.t.len() {
             let sx = s.wrt_x0(k) * nalgebra::DVector::from_column_slice(x0.as_slice());
             let e = (sx - nalgebra::DVector::from_column_slice(s.x[k].as_slice())).amax();
@@ -82,7 +104,6 @@ fn linear_system_sensitivity_is_the_discrete_propagator_for_every_method() {
         }
     }
     // the fixed-step propagators in closed form: (I + hA)^20 and (I − hA)^−20
-    let a = Matrix2::new(-1.0, 1.0, 0.0, -2.0);
     let ee = (Matrix2::identity() + a * 0.1).pow(20);
     let ie = (Matrix2::identity() - a * 0.1).try_inverse().unwrap().pow(20);
     let last = |s: &Sensitivities<_>| s.wrt_x0(s.t.len() - 1);
@@ -391,14 +412,107 @@ fn parameters_only() {
             fd[i]
         );
     }
+    // implicit Euler's staggered scheme solves each column on its own with the same LU
+    // at the same x: bit for bit too
     let ie = Options::default().rtol(1e-6).atol(1e-9);
     let a = sensitivity::solve(&p, ImplicitEuler::default(), &ie, &SensitivityOptions::default()).unwrap();
     let b = sensitivity::solve(&p, ImplicitEuler::default(), &ie, &only).unwrap();
-    let k = a.t.len() - 1;
-    assert_eq!(a.t.len(), b.t.len());
-    assert!((a.wrt_params(k) - b.wrt_params(k)).amax() < 1e-6 * a.wrt_params(k).amax());
+    assert_eq!((&a.t, &a.x), (&b.t, &b.x));
+    for k in 0..a.t.len() {
+        assert_eq!(a.wrt_params(k), b.wrt_params(k), "t = {}", a.t[k]);
+    }
     // a model without parameters has nothing to differentiate by
     let q = Problem::new(linear(), vector![1.0, 1.0], (0.0, 1.0));
     let e = sensitivity::solve(&q, Dopri5::default(), &o, &only).unwrap_err();
     assert!(matches!(e, Error::InvalidInput { what: "wrt", .. }), "{e}");
+}
+
+/// Implicit Euler's staggered direct scheme on a driven model with parameters (the
+/// differential drive's wheel radii and track over a wheel-speed log, inputs switching at
+/// every control time): `x` and the steps are the plain solve's, bit for bit; `S` is the
+/// derivative of the computed solution with those steps (central differences of solves
+/// that replay them, Newton converged tightly); at output times it is the step's linear
+/// interpolant, as `x` is; `Save::End` keeps the same last `S`; and with `S` in the error
+/// control the augmented system is integrated instead (other steps, close `S`).
+#[test]
+fn implicit_euler_staggered_scheme_on_a_driven_model() {
+    use reckon::calibration::lsq::diff_drive;
+    let geometry = [0.0502, 0.0497, 0.405];
+    let dd = diff_drive(&geometry).unwrap();
+    let log = drives::wheel_speed_log();
+    let span = (0.0, 20.0);
+    let x0 = vector![0.1, -0.2, 0.3];
+    let p = Problem::new(&dd, x0, span).controls(log.clone());
+    let o = Options::default().rtol(1e-6).atol(1e-9);
+    let s = sens(&p, ImplicitEuler::default(), &o);
+    let plain = p.solve(ImplicitEuler::default(), &o).unwrap();
+    assert_eq!((&plain.t, &plain.x), (&s.t, &s.x));
+    assert!(s.t.len() > 50, "{} steps", s.t.len());
+    assert_eq!((s.s[0].nrows(), s.s[0].ncols()), (3, 6));
+    // replay the steps: every step end a breakpoint, one fixed step per interval
+    let inner = s.t[1..s.t.len() - 1].to_vec();
+    let replay = Options::default().fixed(100.0).breakpoints(inner).rtol(1e-12).atol(1e-14);
+    let end = |x0: SVector<f64, 3>, g: &[f64]| -> SVector<f64, 3> {
+        let m = diff_drive(g).unwrap();
+        *Problem::new(&m, x0, span)
+            .controls(log.clone())
+            .solve(ImplicitEuler::default(), &replay)
+            .unwrap()
+            .last()
+            .1
+    };
+    let mut want = DMatrix::zeros(3, 6);
+    for j in 0..6 {
+        let d = if j < 3 { 1e-6 } else { 1e-6 * geometry[j - 3] };
+        let (mut xp, mut xm, mut gp, mut gm) = (x0, x0, geometry, geometry);
+        if j < 3 {
+            xp[j] += d;
+            xm[j] -= d;
+        } else {
+            gp[j - 3] += d;
+            gm[j - 3] -= d;
+        }
+        want.set_column(j, &((end(xp, &gp) - end(xm, &gm)) / (2.0 * d)));
+    }
+    let got = s.s.last().unwrap();
+    let e = max_rel(got, &want);
+    assert!(e < 1e-6, "staggered S differs from replayed central differences by {e:e}\n{got}{want}");
+    // output times: the linear interpolant of the neighbouring steps' S
+    let at: Vec<f64> = (1..40).map(|k| 0.5 * k as f64 - 0.013).collect();
+    let si = sensitivity::solve(
+        &p,
+        ImplicitEuler::default(),
+        &o.clone().save(Save::At(at.clone())),
+        &SensitivityOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(si.t, at);
+    for (k, &ta) in at.iter().enumerate() {
+        let j = s.t.partition_point(|&t| t < ta);
+        let theta = (ta - s.t[j - 1]) / (s.t[j] - s.t[j - 1]);
+        let lin = &s.s[j - 1] + (&s.s[j] - &s.s[j - 1]) * theta;
+        let e = (&si.s[k] - &lin).amax() / lin.amax();
+        assert!(e < 1e-12, "t = {ta}: {e:e}");
+    }
+    // the end alone: the same last S
+    let se = sensitivity::solve(
+        &p,
+        ImplicitEuler::default(),
+        &o.clone().save(Save::End),
+        &SensitivityOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(se.t, vec![0.0, 20.0]);
+    assert_eq!(se.s.last(), s.s.last());
+    // S in the error control: the augmented system, its own steps
+    let c = sensitivity::solve(
+        &p,
+        ImplicitEuler::default(),
+        &o,
+        &SensitivityOptions::default().error_control(true),
+    )
+    .unwrap();
+    assert_ne!(c.t.len(), s.t.len());
+    let e = max_rel(c.s.last().unwrap(), got);
+    assert!(e < 1e-2, "error-controlled S vs staggered: {e:e}");
 }

@@ -3,7 +3,7 @@
 
 mod checks;
 mod lean;
-mod save;
+pub(crate) mod save;
 
 use crate::control::{Controller, Weights, initial_step};
 use crate::error::{Error, Result};
@@ -339,6 +339,15 @@ where
     pub fn stiffness(&self) -> Option<Stiffness> {
         self.stiffness
     }
+    /// The inputs held now: those the next step uses.
+    pub(crate) fn held_inputs(&self) -> &[f64] {
+        &self.f.u
+    }
+    /// The last accepted step of [`step`](Self::step): `(t, h, t + h)` as the method took
+    /// it (`t + h` where it landed).
+    pub(crate) fn last_step(&self) -> (f64, f64, f64) {
+        self.last_step
+    }
     /// Whether `t_end` (or a terminal event) has been reached.
     pub fn is_done(&self) -> bool {
         self.done
@@ -646,8 +655,8 @@ where
             self.method
                 .dense(&mut self.f, self.t, h, &self.x, &self.x_new, &mut self.dense)?;
             stopped = self.check_events(h, &mut t_new)?;
-            self.last_step = (self.t, h, t_new);
         }
+        self.last_step = (self.t, h, t_new);
         self.method.accept();
         if let Some(to) = self.method.switched() {
             self.switches.push(Switch { t: t_new, to });

@@ -8,9 +8,9 @@ use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// A step's start, size and dense coefficients.
-pub(super) type Segment<'c, D> = (f64, f64, &'c [OVector<f64, D>]);
+pub(crate) type Segment<'c, D> = (f64, f64, &'c [OVector<f64, D>]);
 
-pub(super) struct Saver<D: Dim>
+pub(crate) struct Saver<D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
@@ -39,7 +39,7 @@ impl<D: Dim> Saver<D>
 where
     DefaultAllocator: Allocator<D>,
 {
-    pub(super) fn new(save: &Save, dir: f64, t0: f64, x0: &OVector<f64, D>) -> Self {
+    pub(crate) fn new(save: &Save, dir: f64, t0: f64, x0: &OVector<f64, D>) -> Self {
         let (mode, at) = match save {
             Save::Steps => (Mode::Steps, Vec::new()),
             Save::Every(k) => (Mode::Every(*k), Vec::new()),
@@ -70,25 +70,25 @@ where
     }
 
     /// Whether only the end state is kept ([`Save::End`]).
-    pub(super) fn end_only(&self) -> bool {
+    pub(crate) fn end_only(&self) -> bool {
         self.mode == Mode::End
     }
 
     /// Whether every step is kept ([`Save::Steps`]).
-    pub(super) fn every_step(&self) -> bool {
+    pub(crate) fn every_step(&self) -> bool {
         self.mode == Mode::Steps
     }
 
     /// Store `(t, x)`.
     #[inline(always)]
-    pub(super) fn push(&mut self, t: f64, x: &OVector<f64, D>) {
+    pub(crate) fn push(&mut self, t: f64, x: &OVector<f64, D>) {
         self.t.push(t);
         self.x.push(x.clone());
     }
 
     /// Room for `n` more kept steps when every step is kept (a run that knows a lower
     /// bound on its steps: one per control interval, say).
-    pub(super) fn reserve(&mut self, n: usize) {
+    pub(crate) fn reserve(&mut self, n: usize) {
         if self.mode == Mode::Steps {
             self.t.reserve(n);
             self.x.reserve(n);
@@ -96,14 +96,14 @@ where
     }
 
     /// Whether the run needs each step's dense polynomial (output times).
-    pub(super) fn needs_dense(save: &Save) -> bool {
+    pub(crate) fn needs_dense(save: &Save) -> bool {
         matches!(save, Save::At(_))
     }
 
     /// An accepted step (or a landing on a stop) ending at `(t1, x1)`; `seg` is the step's
     /// `(t0, h)` and dense coefficients when the run keeps them.
     #[inline(always)]
-    pub(super) fn step(&mut self, t1: f64, x1: &OVector<f64, D>, seg: Option<Segment<'_, D>>) {
+    pub(crate) fn step(&mut self, t1: f64, x1: &OVector<f64, D>, seg: Option<Segment<'_, D>>) {
         match self.mode {
             Mode::Steps => self.push(t1, x1),
             Mode::Every(k) => {
@@ -145,7 +145,7 @@ where
 
     /// The run ended: store the last step end if it was held back (for output times:
     /// only when the run stopped before the last of them, at a terminal event).
-    pub(super) fn finish(mut self) -> (Vec<f64>, Vec<OVector<f64, D>>) {
+    pub(crate) fn finish(mut self) -> (Vec<f64>, Vec<OVector<f64, D>>) {
         let keep = self.mode != Mode::At || self.next < self.at.len();
         if let Some((t, x)) = self.pending.take().filter(|_| keep) {
             self.t.push(t);

@@ -361,7 +361,8 @@ where
     where
         DefaultAllocator: Allocator<D, D> + Allocator<U1, D>,
     {
-        (!sens.error_control).then(|| staggered_implicit_euler(problem, ImplicitEuler::<D>::new(self.newton), opts, sens))
+        (!sens.error_control)
+            .then(|| staggered_implicit_euler(problem, ImplicitEuler::<D>::new(self.newton), opts, sens))
     }
 }
 

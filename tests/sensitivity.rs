@@ -90,7 +90,11 @@ fn linear_system_sensitivity_is_the_discrete_propagator_for_every_method() {
                 prop = (Matrix2::identity() - a * h).try_inverse().unwrap() * prop;
                 let e = max_rel(&s.wrt_x0(k), &DMatrix::from_column_slice(2, 2, prop.as_slice()));
                 // rounding over the steps (h from the saved times, a few ulp per step)
-                assert!(e < 1e-12, "{name}: S differs from Π(I − hA)⁻¹ by {e:e} at t = {}", s.t[k]);
+                assert!(
+                    e < 1e-12,
+                    "{name}: S differs from Π(I − hA)⁻¹ by {e:e} at t = {}",
+                    s.t[k]
+                );
             }
             // and x is the plain solve's, step for step, bit for bit
             let plain = p.solve(ImplicitEuler::default(), &adaptive).unwrap();
@@ -451,7 +455,11 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     assert_eq!((s.s[0].nrows(), s.s[0].ncols()), (3, 6));
     // replay the steps: every step end a breakpoint, one fixed step per interval
     let inner = s.t[1..s.t.len() - 1].to_vec();
-    let replay = Options::default().fixed(100.0).breakpoints(inner).rtol(1e-12).atol(1e-14);
+    let replay = Options::default()
+        .fixed(100.0)
+        .breakpoints(inner)
+        .rtol(1e-12)
+        .atol(1e-14);
     let end = |x0: SVector<f64, 3>, g: &[f64]| -> SVector<f64, 3> {
         let m = diff_drive(g).unwrap();
         *Problem::new(&m, x0, span)
@@ -476,7 +484,10 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     }
     let got = s.s.last().unwrap();
     let e = max_rel(got, &want);
-    assert!(e < 1e-6, "staggered S differs from replayed central differences by {e:e}\n{got}{want}");
+    assert!(
+        e < 1e-6,
+        "staggered S differs from replayed central differences by {e:e}\n{got}{want}"
+    );
     // output times: the linear interpolant of the neighbouring steps' S
     let at: Vec<f64> = (1..40).map(|k| 0.5 * k as f64 - 0.013).collect();
     let si = sensitivity::solve(

@@ -372,6 +372,28 @@ fn dynamic_state_with_parameters() {
     assert!((dp[(0, 0)] + (-0.5f64).exp()).abs() < 1e-10);
     assert!((dp[(1, 1)] + 3.0 * (-2.0f64).exp()).abs() < 1e-10);
     assert!(dp[(0, 1)].abs() < 1e-15 && dp[(1, 0)].abs() < 1e-15);
+    // implicit Euler's staggered scheme at Dyn (faer's LU), fixed h = 0.01: the discrete
+    // map x_N = x₀/(1 + p·h)^N has ∂x_N/∂p = −N·h·x₀/(1 + p·h)^(N+1) and ∂x_N/∂x₀ = (1 + p·h)^−N
+    let s = sensitivity::solve(
+        &p,
+        ImplicitEuler::default(),
+        &Options::default().fixed(0.01),
+        &SensitivityOptions::default(),
+    )
+    .unwrap();
+    let k = s.t.len() - 1;
+    assert_eq!(k, 100);
+    for (i, (x0, pi)) in [(1.0, 0.5), (3.0, 2.0)].into_iter().enumerate() {
+        let q: f64 = 1.0 + pi * 0.01;
+        let dxdp = -100.0 * 0.01 * x0 / q.powi(101);
+        assert!(
+            (s.dx_dp(k, i, i) - dxdp).abs() < 1e-13 * dxdp.abs(),
+            "{i}: {} vs {dxdp}",
+            s.dx_dp(k, i, i)
+        );
+        assert!((s.wrt_x0(k)[(i, i)] - q.powi(-100)).abs() < 1e-13);
+        assert_eq!(s.dx_dp(k, i, 1 - i), 0.0);
+    }
 }
 
 #[test]

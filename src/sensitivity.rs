@@ -386,15 +386,10 @@ where
         Wrt::Params => (np, 0),
     };
     let r = D::from_usize(n);
-    let dir = (problem.t_end - problem.t0).signum();
     let mut it = problem.integrator(method, opts)?;
     // z = (x, vec S), the stacked state the saver keeps (as the augmented solve's)
-    let mut z = DVector::zeros(n * (1 + m));
-    z.rows_mut(0, n).copy_from_slice(problem.x0.as_slice());
-    for i in 0..x0_cols {
-        z[n + i + i * n] = 1.0;
-    }
-    let mut out = Saver::<Dyn>::new(&opts.save, dir, problem.t0, &z);
+    let mut z = stacked_start(problem.x0.as_slice(), m, sens.wrt);
+    let mut out = Saver::<Dyn>::new(&opts.save, it.direction(), problem.t0, &z);
     let at_times = Saver::<Dyn>::needs_dense(&opts.save);
     // the step's linear interpolant in z (implicit Euler's dense output, c₀ + θ·c₁)
     let mut dense = [z.clone(), DVector::zeros(z.len())];
@@ -408,7 +403,7 @@ where
     let mut fx = OVector::<f64, D>::zeros_generic(r, U1);
     let mut mat = OMatrix::<f64, D, D>::zeros_generic(r, r);
     let mut col = OVector::<f64, D>::zeros_generic(r, U1);
-    let mut u = it.held_inputs().to_vec();
+    let mut u = Vec::with_capacity(it.held_inputs().len());
     let mut extra = 0u64;
     loop {
         u.clear();
@@ -449,14 +444,8 @@ where
                 lu.solve_in_place(&mut col);
                 s_col.copy_from_slice(col.as_slice());
             }
-            if sz.iter().any(|v| !v.is_finite()) {
-                return Err(Error::NonFinite {
-                    t: t1,
-                    quantity: crate::error::Quantity::State,
-                    component: n + sz.iter().position(|v| !v.is_finite()).unwrap_or(0),
-                });
-            }
             z.rows_mut(0, n).copy_from_slice(x1.as_slice());
+            crate::system::finite(z.as_slice(), t1, crate::error::Quantity::State)?;
             if at_times {
                 let [c0, c1] = &mut dense;
                 c1.copy_from(&z);
@@ -474,6 +463,20 @@ where
     stats.lu_decompositions += extra;
     let (t, zs) = out.finish();
     Ok(unstack(t, zs, n, m, sens.wrt, np, stats, "implicit-euler"))
+}
+
+/// The stacked state at `t₀`, `z = (x₀, vec S₀)` with `m` columns: `S₀ = [I | 0]` for
+/// [`Wrt::All`], `0` for [`Wrt::Params`].
+fn stacked_start(x0: &[f64], m: usize, wrt: Wrt) -> DVector<f64> {
+    let n = x0.len();
+    let mut z = DVector::zeros(n * (1 + m));
+    z.rows_mut(0, n).copy_from_slice(x0);
+    if wrt == Wrt::All {
+        for i in 0..n {
+            z[n + i + i * n] = 1.0;
+        }
+    }
+    z
 }
 
 /// The saved stacked states `(x, vec S)` as [`Sensitivities`]: each `S` takes over its
@@ -631,13 +634,7 @@ where
     let method = method.augment(n, np)?;
     let aug = Augmented::new(&problem.system, n, sens.wrt);
     let m = aug.m;
-    let mut z0 = DVector::zeros(n * (1 + m));
-    z0.rows_mut(0, n).copy_from_slice(problem.x0.as_slice());
-    if sens.wrt == Wrt::All {
-        for i in 0..n {
-            z0[n + i + i * n] = 1.0;
-        }
-    }
+    let z0 = stacked_start(problem.x0.as_slice(), m, sens.wrt);
     let mut ap = Problem::<Dyn, Augmented<'_, D, S>>::new(aug, z0, (problem.t0, problem.t_end));
     ap.controls = problem.controls.clone();
     ap.held = problem.held.clone();

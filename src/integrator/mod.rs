@@ -339,6 +339,10 @@ where
     pub fn stiffness(&self) -> Option<Stiffness> {
         self.stiffness
     }
+    /// The direction of integration, `±1`.
+    pub(crate) fn direction(&self) -> f64 {
+        self.dir
+    }
     /// The inputs held now: those the next step uses.
     pub(crate) fn held_inputs(&self) -> &[f64] {
         &self.f.u

@@ -70,25 +70,25 @@ where
     }
 
     /// Whether only the end state is kept ([`Save::End`]).
-    pub(crate) fn end_only(&self) -> bool {
+    pub(super) fn end_only(&self) -> bool {
         self.mode == Mode::End
     }
 
     /// Whether every step is kept ([`Save::Steps`]).
-    pub(crate) fn every_step(&self) -> bool {
+    pub(super) fn every_step(&self) -> bool {
         self.mode == Mode::Steps
     }
 
     /// Store `(t, x)`.
     #[inline(always)]
-    pub(crate) fn push(&mut self, t: f64, x: &OVector<f64, D>) {
+    pub(super) fn push(&mut self, t: f64, x: &OVector<f64, D>) {
         self.t.push(t);
         self.x.push(x.clone());
     }
 
     /// Room for `n` more kept steps when every step is kept (a run that knows a lower
     /// bound on its steps: one per control interval, say).
-    pub(crate) fn reserve(&mut self, n: usize) {
+    pub(super) fn reserve(&mut self, n: usize) {
         if self.mode == Mode::Steps {
             self.t.reserve(n);
             self.x.reserve(n);

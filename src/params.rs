@@ -176,16 +176,7 @@ where
     fn params(&self) -> &[f64] {
         &self.params
     }
-    fn rhs_sensitivity(
-        &self,
-        t: f64,
-        x: &OVector<f64, D>,
-        u: &[f64],
-        s: &[f64],
-        m: usize,
-        dx: &mut OVector<f64, D>,
-        ds: &mut [f64],
-    ) {
+    fn tangent(&self, t: f64, x: &OVector<f64, D>, u: &[f64], s: &[f64], m: usize, ds: &mut [f64]) {
         let n = x.len();
         let np = self.params.len();
         if m < np || m > n + np {
@@ -208,7 +199,6 @@ where
             None => DualVec64::new(0.0, Derivative::none()),
         });
         let r = (self.g)(t, &xd, u, &pd.as_slice()[..np]);
-        *dx = (self.f)(t, x, u, &self.params);
         crate::sensitivity::write_eps(&r, n, m, ds);
     }
 }

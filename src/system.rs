@@ -370,6 +370,23 @@ where
         dx: &mut OVector<f64, D>,
         ds: &mut [f64],
     ) {
+        self.tangent(t, x, u, s, m, ds);
+        self.rhs(t, x, u, dx);
+    }
+    /// `ds ← J·S + [0 | ∂f/∂p]` alone, as in [`rhs_sensitivity`](Self::rhs_sensitivity)
+    /// without `f`: the one dual evaluation a scheme needs when it has `f` already (the
+    /// stages of [`Dopri5`](crate::methods::Dopri5)'s staggered sensitivities).
+    ///
+    /// ```
+    /// use reckon::{model, DualSystem};
+    /// use nalgebra::vector;
+    /// let f = model!(|_, x: [S; 2]| vector![x[0] * x[1], -x[0]]);
+    /// let mut ds = [0.0; 2];
+    /// // one column s = (1, 2): J·s = (x₁·1 + x₀·2, −1) at x = (3, 4)
+    /// f.tangent(0.0, &vector![3.0, 4.0], &[], &[1.0, 2.0], 1, &mut ds);
+    /// assert_eq!(ds, [10.0, -1.0]);
+    /// ```
+    fn tangent(&self, t: f64, x: &OVector<f64, D>, u: &[f64], s: &[f64], m: usize, ds: &mut [f64]) {
         let n = x.len();
         let (r, _) = x.shape_generic();
         if m > n {
@@ -385,7 +402,6 @@ where
             )
         });
         let out = self.rhs_dual(t, &xd, u);
-        self.rhs(t, x, u, dx);
         crate::sensitivity::write_eps(&out, n, m, ds);
     }
 }
@@ -427,6 +443,9 @@ where
         ds: &mut [f64],
     ) {
         (**self).rhs_sensitivity(t, x, u, s, m, dx, ds)
+    }
+    fn tangent(&self, t: f64, x: &OVector<f64, D>, u: &[f64], s: &[f64], m: usize, ds: &mut [f64]) {
+        (**self).tangent(t, x, u, s, m, ds)
     }
 }
 

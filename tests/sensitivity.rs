@@ -549,3 +549,104 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     let e = max_rel(c.s.last().unwrap(), got);
     assert!(e < 1e-2, "error-controlled S vs staggered: {e:e}");
 }
+
+/// RK45's staggered direct scheme on a driven model with parameters (inputs switching
+/// every 2 s, so `k₁` is evaluated afresh after each switch): `x`, the times and the
+/// steps are the plain solve's bit for bit, at every step and at output times (the same
+/// CONTD5 polynomial); `S` equals the augmented system integrated on the same steps
+/// (replayed as breakpoints, one fixed step each) and central differences of those
+/// replayed solves; each accepted step costs six dual evaluations (plus a fresh `K₁`
+/// after a switch), a rejected one none.
+#[test]
+fn dopri5_staggered_scheme_on_a_driven_model() {
+    use reckon::calibration::lsq::diff_drive;
+    let geometry = [0.0502, 0.0497, 0.405];
+    let dd = diff_drive(&geometry).unwrap();
+    let log = drives::wheel_speed_log();
+    let span = (0.0, 20.0);
+    let x0 = vector![0.1, -0.2, 0.3];
+    let p = Problem::new(&dd, x0, span).controls(log.clone());
+    let o = Options::default().rtol(1e-7).atol(1e-9);
+    let s = sens(&p, Dopri5::default(), &o);
+    let plain = p.solve(Dopri5::default(), &o).unwrap();
+    assert_eq!((&plain.t, &plain.x), (&s.t, &s.x));
+    assert_eq!(
+        (s.stats.accepted, s.stats.rejected),
+        (plain.stats.accepted, plain.stats.rejected)
+    );
+    let acc = s.stats.accepted;
+    assert!(
+        acc > 30 && plain.stats.rejected > 0,
+        "{acc} steps, {} rejected",
+        plain.stats.rejected
+    );
+    // tangents: 6 per accepted step, plus K₁ at t₀ and after each of the 9 switches
+    assert_eq!(s.stats.rhs_evals - plain.stats.rhs_evals, 6 * acc + 10);
+    assert_eq!((s.s[0].nrows(), s.s[0].ncols()), (3, 6));
+    // the augmented system on the same steps
+    let inner = s.t[1..s.t.len() - 1].to_vec();
+    let replay = Options::default().fixed(100.0).breakpoints(inner);
+    let ctl = SensitivityOptions::default().error_control(true);
+    let aug = sensitivity::solve(&p, Dopri5::default(), &replay, &ctl).unwrap();
+    assert_eq!(aug.t, s.t);
+    for k in 0..s.t.len() {
+        let e = max_rel(&s.s[k], &aug.s[k]);
+        assert!(e < 1e-12, "t = {}: staggered vs augmented {e:e}", s.t[k]);
+    }
+    // and the derivative of those replayed solves, by central differences
+    let end = |x0: SVector<f64, 3>, g: &[f64]| -> SVector<f64, 3> {
+        let m = diff_drive(g).unwrap();
+        *Problem::new(&m, x0, span)
+            .controls(log.clone())
+            .solve(Dopri5::default(), &replay)
+            .unwrap()
+            .last()
+            .1
+    };
+    let mut want = DMatrix::zeros(3, 6);
+    for j in 0..6 {
+        let d = if j < 3 { 1e-6 } else { 1e-6 * geometry[j - 3] };
+        let (mut xp, mut xm, mut gp, mut gm) = (x0, x0, geometry, geometry);
+        if j < 3 {
+            xp[j] += d;
+            xm[j] -= d;
+        } else {
+            gp[j - 3] += d;
+            gm[j - 3] -= d;
+        }
+        want.set_column(j, &((end(xp, &gp) - end(xm, &gm)) / (2.0 * d)));
+    }
+    let e = max_rel(s.s.last().unwrap(), &want);
+    assert!(e < 1e-7, "staggered S vs central differences {e:e}");
+    // output times: x as the plain solve's dense output, S as the augmented one's
+    let at: Vec<f64> = (1..40).map(|k| 0.5 * k as f64 - 0.013).collect();
+    let o_at = o.clone().save(Save::At(at.clone()));
+    let si = sensitivity::solve(&p, Dopri5::default(), &o_at, &SensitivityOptions::default()).unwrap();
+    let pi = p.solve(Dopri5::default(), &o_at).unwrap();
+    assert_eq!((&si.t, &si.x), (&pi.t, &pi.x));
+    let ai = sensitivity::solve(&p, Dopri5::default(), &replay.clone().save(Save::At(at.clone())), &ctl).unwrap();
+    for (k, ta) in at.iter().enumerate() {
+        let e = max_rel(&si.s[k], &ai.s[k]);
+        assert!(e < 1e-12, "t = {ta}: interpolated S {e:e}");
+    }
+    // the end alone and every 4th step: the same S as every step
+    let se = sensitivity::solve(
+        &p,
+        Dopri5::default(),
+        &o.clone().save(Save::End),
+        &SensitivityOptions::default(),
+    )
+    .unwrap();
+    assert_eq!((se.t.len(), se.s.last()), (2, s.s.last()));
+    let s4 = sensitivity::solve(
+        &p,
+        Dopri5::default(),
+        &o.clone().save(Save::Every(4)),
+        &SensitivityOptions::default(),
+    )
+    .unwrap();
+    for (k, t) in s4.t.iter().enumerate() {
+        let j = s.t.iter().position(|u| u == t).unwrap();
+        assert_eq!(s4.s[k], s.s[j]);
+    }
+}

@@ -343,6 +343,10 @@ where
     pub(crate) fn direction(&self) -> f64 {
         self.dir
     }
+    /// The method, as the last step left it.
+    pub(crate) fn method(&self) -> &M {
+        &self.method
+    }
     /// The inputs held now: those the next step uses.
     pub(crate) fn held_inputs(&self) -> &[f64] {
         &self.f.u

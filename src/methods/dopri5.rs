@@ -267,9 +267,11 @@ where
     }
     fn accept(&mut self) {
         if let Some(w) = self.work.as_mut() {
-            // a copy, not a swap: k₇'s slot is overwritten by the next step anyway
+            // a swap: k₇ = f(t₁, x₁) is the next step's k₁, and the accepted step's own
+            // k₁ stays readable in k₇'s slot (which the next step overwrites) for
+            // [`Dopri5::stages`]
             let [k1, .., k7] = &mut w.k;
-            k1.copy_from(k7);
+            std::mem::swap(k1, k7);
         }
     }
     fn reset(&mut self) {
@@ -293,16 +295,10 @@ where
             return Err(crate::Error::invalid("method", "Dopri5::dense called before init"));
         };
         for i in 0..x.len() {
-            let r1 = x[i];
-            let r2 = x_new[i] - x[i];
-            let r3 = h * k[0][i] - r2;
-            let r4 = r2 - h * k[6][i] - r3;
-            let r5 = h * (0..7).map(|j| DW[j] * k[j][i]).sum::<f64>();
-            c[0][i] = r1;
-            c[1][i] = r2 + r3;
-            c[2][i] = r4 + r5 - r3;
-            c[3][i] = -r4 - 2.0 * r5;
-            c[4][i] = r5;
+            let r = contd5(h, x[i], x_new[i], |j| k[j][i]);
+            for (cp, rp) in c.iter_mut().zip(r) {
+                cp[i] = rp;
+            }
         }
         Ok(())
     }
@@ -313,6 +309,32 @@ where
         let den = (x_new - &w.y6).norm();
         (den > 0.0).then(|| h.abs() * num / den)
     }
+}
+
+impl<D: Dim> Dopri5<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// The stage derivatives `k₁…k₇` of the last accepted step, in order (`None` before
+    /// the first step): what a scheme differentiating the step needs (the staggered
+    /// sensitivities of [`crate::sensitivity`]). Valid until the next step.
+    pub(crate) fn stages(&self) -> Option<[&OVector<f64, D>; 7]> {
+        let [k7, k2, k3, k4, k5, k6, k1] = self.work.as_ref().map(|w| &w.k)?.each_ref();
+        Some([k1, k2, k3, k4, k5, k6, k7])
+    }
+}
+
+/// One component's dense-output coefficients in powers of θ (Hairer's CONTD5,
+/// `r₁ + θ(r₂ + (1−θ)(r₃ + θ(r₄ + (1−θ)r₅)))`) from the step's ends `x₀`, `x₁` and its
+/// stage derivatives `k(j)`, `j = 0…6`: `[r₁, r₂ + r₃, r₄ + r₅ − r₃, −r₄ − 2r₅, r₅]`.
+#[inline(always)]
+pub(crate) fn contd5(h: f64, x0: f64, x1: f64, k: impl Fn(usize) -> f64) -> [f64; 5] {
+    let r1 = x0;
+    let r2 = x1 - x0;
+    let r3 = h * k(0) - r2;
+    let r4 = r2 - h * k(6) - r3;
+    let r5 = h * (0..7).map(|j| DW[j] * k(j)).sum::<f64>();
+    [r1, r2 + r3, r4 + r5 - r3, -r4 - 2.0 * r5, r5]
 }
 
 /// `k₁ ← f(t, x)` after a discontinuity. Kept out of line: inlined, the compiler

@@ -17,6 +17,17 @@
 //! the discrete implicit equations (the implicit function theorem), to the Newton
 //! tolerance, because Newton's iterate is not the exact root.
 //!
+//! **Dopri5: the staggered direct scheme.** Without `S` in the error control,
+//! [`Dopri5`](crate::methods::Dopri5) does not integrate the stacked state either: the
+//! plain kernel takes every step at the model's own dimension (so `x`, the times and the
+//! step count are the plain solve's, bit for bit), and after each accepted step the
+//! stage sensitivities `Kᵢ = J(Yᵢ)·(S₀ + h Σ aᵢⱼ Kⱼ) + [0 | ∂f/∂p (Yᵢ)]` are evaluated at
+//! the kernel's own stage arguments `Yᵢ` (one dual evaluation each,
+//! [`DualSystem::tangent`](crate::DualSystem::tangent)) and `S₁ = S₀ + h Σ bᵢ Kᵢ` — the
+//! same numbers the augmented system would give on those steps, without integrating it:
+//! six dual evaluations per accepted step (`K₇` is the next step's `K₁`), none for a
+//! rejected one, and no stacked vector through the kernel.
+//!
 //! **Implicit Euler: the staggered direct scheme.** [`ImplicitEuler`](crate::methods::ImplicitEuler)
 //! does not integrate the augmented system (unless `S` is in the error control): it takes
 //! the plain solve's steps — so `x`, the times and the step count are the plain solve's,
@@ -55,9 +66,9 @@
 
 use crate::control::Tolerance;
 use crate::error::{Error, Result};
-use crate::integrator::save::Saver;
-use crate::linalg::{Lu, LuDim};
-use crate::methods::{Exact, Flow, ImplicitEuler, Method};
+use crate::linalg::LuDim;
+use crate::methods::{Dopri5, Exact, Flow, ImplicitEuler, Method};
+
 use crate::options::Options;
 use crate::problem::Problem;
 use crate::solution::{Solution, Stats};
@@ -66,6 +77,8 @@ use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, U1};
 use num_dual::{Derivative, DualVec64};
 use std::marker::PhantomData;
+
+mod direct;
 
 /// The derivative parts of `r` (`n` duals with `m` directions) into `ds` column-major;
 /// NaN for a result of the wrong length (the driver reports it).
@@ -334,12 +347,34 @@ macro_rules! augment_as_is {
 
 augment_as_is!(
     crate::methods::ExplicitEuler,
-    crate::methods::Dopri5<Dyn>,
     crate::methods::Bdf<Dyn>,
     crate::methods::Rodas5P<Dyn>,
     crate::methods::ExponentialEuler<Dyn>,
     crate::methods::Auto<Dyn>
 );
+
+/// Dormand–Prince: the augmented system when the sensitivities are in the error control,
+/// otherwise the staggered direct scheme on the plain solve's steps ([`solve`]).
+impl<D: Dim> Augment<D> for Dopri5<Dyn>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    type Method = Dopri5<Dyn>;
+    fn augment(self, _n: usize, _n_params: usize) -> Result<Self::Method> {
+        Ok(self)
+    }
+    fn direct<S: DualSystem<D>>(
+        &self,
+        problem: &Problem<'_, D, S>,
+        opts: &Options,
+        sens: &SensitivityOptions,
+    ) -> Option<Result<Sensitivities<D>>>
+    where
+        DefaultAllocator: Allocator<D, D> + Allocator<U1, D>,
+    {
+        (!sens.error_control).then(|| direct::dopri5(problem, opts, sens))
+    }
+}
 
 /// Implicit Euler: the augmented system when the sensitivities are in the error
 /// control, otherwise the staggered direct scheme ([`solve`]), which needs the plain
@@ -361,108 +396,8 @@ where
     where
         DefaultAllocator: Allocator<D, D> + Allocator<U1, D>,
     {
-        (!sens.error_control)
-            .then(|| staggered_implicit_euler(problem, ImplicitEuler::<D>::new(self.newton), opts, sens))
+        (!sens.error_control).then(|| direct::implicit_euler(problem, ImplicitEuler::<D>::new(self.newton), opts, sens))
     }
-}
-
-/// The staggered direct scheme for implicit Euler (Caracotsios & Stewart 1985): the plain
-/// solve's steps, and after each accepted step `x₁ = x₀ + h·f(t + h, x₁)` one linear solve
-/// for its derivative, `(I − h·J(x₁))·S₁ = S₀ + h·[0 | ∂f/∂p (x₁)]`, with `J` and `∂f/∂p`
-/// exact at the computed `x₁` (one dual evaluation) and `I − h·J` factored once.
-fn staggered_implicit_euler<D: LuDim, S: DualSystem<D>>(
-    problem: &Problem<'_, D, S>,
-    method: ImplicitEuler<D>,
-    opts: &Options,
-    sens: &SensitivityOptions,
-) -> Result<Sensitivities<D>>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
-{
-    let n = problem.x0.len();
-    let np = problem.system.n_params();
-    let (m, x0_cols) = match sens.wrt {
-        Wrt::All => (n + np, n),
-        Wrt::Params => (np, 0),
-    };
-    let r = D::from_usize(n);
-    let mut it = problem.integrator(method, opts)?;
-    // z = (x, vec S), the stacked state the saver keeps (as the augmented solve's)
-    let mut z = stacked_start(problem.x0.as_slice(), m, sens.wrt);
-    let mut out = Saver::<Dyn>::new(&opts.save, it.direction(), problem.t0, &z);
-    let at_times = Saver::<Dyn>::needs_dense(&opts.save);
-    // the step's linear interpolant in z (implicit Euler's dense output, c₀ + θ·c₁)
-    let mut dense = [z.clone(), DVector::zeros(z.len())];
-    let mut seg = (problem.t0, 0.0);
-    // [I | 0] → [J | ∂f/∂p]: one dual evaluation with n + n_p directions
-    let mut unit = vec![0.0; n * (n + np)];
-    for i in 0..n {
-        unit[i + i * n] = 1.0;
-    }
-    let mut jp = vec![0.0; n * (n + np)];
-    let mut fx = OVector::<f64, D>::zeros_generic(r, U1);
-    let mut mat = OMatrix::<f64, D, D>::zeros_generic(r, r);
-    let mut col = OVector::<f64, D>::zeros_generic(r, U1);
-    let mut u = Vec::with_capacity(it.held_inputs().len());
-    let mut extra = 0u64;
-    loop {
-        u.clear();
-        u.extend_from_slice(it.held_inputs());
-        let accepted = it.stats().accepted;
-        if it.step()?.is_none() {
-            break;
-        }
-        if it.stats().accepted > accepted {
-            let (t, h, _) = it.last_step();
-            let x1 = it.x();
-            // the time implicit Euler evaluated f at
-            let t1 = t + h;
-            problem
-                .system
-                .rhs_sensitivity(t1, x1, &u, &unit, n + np, &mut fx, &mut jp);
-            for c in 0..n {
-                for i in 0..n {
-                    mat[(i, c)] = -h * jp[i + c * n];
-                }
-                mat[(c, c)] += 1.0;
-            }
-            extra += 1;
-            let lu = D::Lu::factor(&mat).ok_or(Error::SingularMatrix { t, h })?;
-            if at_times {
-                dense[0].copy_from(&z);
-            }
-            let sz = &mut z.as_mut_slice()[n..];
-            for k in 0..m {
-                let s_col = &mut sz[k * n..(k + 1) * n];
-                col.as_mut_slice().copy_from_slice(s_col);
-                if k >= x0_cols {
-                    let fp = &jp[(n + k - x0_cols) * n..(n + k - x0_cols + 1) * n];
-                    for i in 0..n {
-                        col[i] += h * fp[i];
-                    }
-                }
-                lu.solve_in_place(&mut col);
-                s_col.copy_from_slice(col.as_slice());
-            }
-            z.rows_mut(0, n).copy_from_slice(x1.as_slice());
-            crate::system::finite(z.as_slice(), t1, crate::error::Quantity::State)?;
-            if at_times {
-                let [c0, c1] = &mut dense;
-                c1.copy_from(&z);
-                *c1 -= &*c0;
-            }
-            seg = (t, h);
-        } else {
-            // a stop landed on without a step: the same state, a new time
-            z.rows_mut(0, n).copy_from_slice(it.x().as_slice());
-        }
-        out.step(it.t(), &z, at_times.then_some((seg.0, seg.1, &dense[..])));
-    }
-    let mut stats = it.stats();
-    stats.jacobian_evals += extra;
-    stats.lu_decompositions += extra;
-    let (t, zs) = out.finish();
-    Ok(unstack(t, zs, n, m, sens.wrt, np, stats, "implicit-euler"))
 }
 
 /// The stacked state at `t₀`, `z = (x₀, vec S₀)` with `m` columns: `S₀ = [I | 0]` for
@@ -553,7 +488,10 @@ where
     pub wrt: Wrt,
     /// Number of model parameters.
     pub n_params: usize,
-    /// Counters of the augmented run (each `f` evaluation is one dual evaluation of the body).
+    /// Counters of the run: of the augmented system (each `f` evaluation one dual
+    /// evaluation of the body); for the staggered schemes, the plain solve's, with the
+    /// dual evaluations added (RK45: to `rhs_evals`; implicit Euler: one Jacobian and one
+    /// LU per accepted step).
     pub stats: Stats,
     /// The method's name.
     pub method: &'static str,

@@ -1,0 +1,247 @@
+//! Sensitivities by a scheme of the method's own on the plain solve's steps (the
+//! *staggered direct* schemes): the plain method takes every step at `D`, so `x`, the
+//! times and the step count are the plain solve's bit for bit, and after each accepted
+//! step the derivative of that step's map is applied to `S`.
+
+use super::{Sensitivities, SensitivityOptions, Wrt, stacked_start, unstack};
+use crate::error::{Error, Result};
+use crate::integrator::save::Saver;
+use crate::linalg::{Lu, LuDim};
+use crate::methods::dopri5::{contd5, tableau};
+use crate::methods::{Dopri5, ImplicitEuler};
+use crate::options::Options;
+use crate::problem::Problem;
+use crate::system::DualSystem;
+use nalgebra::allocator::Allocator;
+use nalgebra::{DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, U1};
+
+/// The staggered direct scheme for implicit Euler (Caracotsios & Stewart 1985): the plain
+/// solve's steps, and after each accepted step `x₁ = x₀ + h·f(t + h, x₁)` one linear solve
+/// for its derivative, `(I − h·J(x₁))·S₁ = S₀ + h·[0 | ∂f/∂p (x₁)]`, with `J` and `∂f/∂p`
+/// exact at the computed `x₁` (one dual evaluation) and `I − h·J` factored once.
+pub(super) fn implicit_euler<D: LuDim, S: DualSystem<D>>(
+    problem: &Problem<'_, D, S>,
+    method: ImplicitEuler<D>,
+    opts: &Options,
+    sens: &SensitivityOptions,
+) -> Result<Sensitivities<D>>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    let n = problem.x0.len();
+    let np = problem.system.n_params();
+    let (m, x0_cols) = match sens.wrt {
+        Wrt::All => (n + np, n),
+        Wrt::Params => (np, 0),
+    };
+    let r = D::from_usize(n);
+    let mut it = problem.integrator(method, opts)?;
+    // z = (x, vec S), the stacked state the saver keeps (as the augmented solve's)
+    let mut z = stacked_start(problem.x0.as_slice(), m, sens.wrt);
+    let mut out = Saver::<Dyn>::new(&opts.save, it.direction(), problem.t0, &z);
+    let at_times = Saver::<Dyn>::needs_dense(&opts.save);
+    // the step's linear interpolant in z (implicit Euler's dense output, c₀ + θ·c₁)
+    let mut dense = [z.clone(), DVector::zeros(z.len())];
+    let mut seg = (problem.t0, 0.0);
+    // [I | 0] → [J | ∂f/∂p]: one dual evaluation with n + n_p directions
+    let mut unit = vec![0.0; n * (n + np)];
+    for i in 0..n {
+        unit[i + i * n] = 1.0;
+    }
+    let mut jp = vec![0.0; n * (n + np)];
+    let mut fx = OVector::<f64, D>::zeros_generic(r, U1);
+    let mut mat = OMatrix::<f64, D, D>::zeros_generic(r, r);
+    let mut col = OVector::<f64, D>::zeros_generic(r, U1);
+    let mut u = Vec::with_capacity(it.held_inputs().len());
+    let mut extra = 0u64;
+    loop {
+        u.clear();
+        u.extend_from_slice(it.held_inputs());
+        let accepted = it.stats().accepted;
+        if it.step()?.is_none() {
+            break;
+        }
+        if it.stats().accepted > accepted {
+            let (t, h, _) = it.last_step();
+            let x1 = it.x();
+            // the time implicit Euler evaluated f at
+            let t1 = t + h;
+            problem
+                .system
+                .rhs_sensitivity(t1, x1, &u, &unit, n + np, &mut fx, &mut jp);
+            for c in 0..n {
+                for i in 0..n {
+                    mat[(i, c)] = -h * jp[i + c * n];
+                }
+                mat[(c, c)] += 1.0;
+            }
+            extra += 1;
+            let lu = D::Lu::factor(&mat).ok_or(Error::SingularMatrix { t, h })?;
+            if at_times {
+                dense[0].copy_from(&z);
+            }
+            let sz = &mut z.as_mut_slice()[n..];
+            for k in 0..m {
+                let s_col = &mut sz[k * n..(k + 1) * n];
+                col.as_mut_slice().copy_from_slice(s_col);
+                if k >= x0_cols {
+                    let fp = &jp[(n + k - x0_cols) * n..(n + k - x0_cols + 1) * n];
+                    for i in 0..n {
+                        col[i] += h * fp[i];
+                    }
+                }
+                lu.solve_in_place(&mut col);
+                s_col.copy_from_slice(col.as_slice());
+            }
+            z.rows_mut(0, n).copy_from_slice(x1.as_slice());
+            crate::system::finite(z.as_slice(), t1, crate::error::Quantity::State)?;
+            if at_times {
+                let [c0, c1] = &mut dense;
+                c1.copy_from(&z);
+                *c1 -= &*c0;
+            }
+            seg = (t, h);
+        } else {
+            // a stop landed on without a step: the same state, a new time
+            z.rows_mut(0, n).copy_from_slice(it.x().as_slice());
+        }
+        out.step(it.t(), &z, at_times.then_some((seg.0, seg.1, &dense[..])));
+    }
+    let mut stats = it.stats();
+    stats.jacobian_evals += extra;
+    stats.lu_decompositions += extra;
+    let (t, zs) = out.finish();
+    Ok(unstack(t, zs, n, m, sens.wrt, np, stats, "implicit-euler"))
+}
+
+/// The staggered direct scheme for Dormand–Prince 5(4) (internal differentiation of the
+/// steps taken): after each accepted step `x₁ = x₀ + h Σ bᵢ kᵢ`, with the plain kernel's
+/// own stages `kᵢ = f(t + cᵢh, Yᵢ)` and `Yᵢ = x₀ + h Σ aᵢⱼ kⱼ` (rebuilt from them, bit for
+/// bit), the stage sensitivities `Kᵢ = J(Yᵢ)·(S₀ + h Σ aᵢⱼ Kⱼ) + [0 | ∂f/∂p (Yᵢ)]` (one
+/// dual evaluation each, [`DualSystem::tangent`]) and `S₁ = S₀ + h Σ bᵢ Kᵢ`. `K₇` at
+/// `(t + h, x₁, S₁)` is the next step's `K₁` (first same as last, as `k₇` is), so a step
+/// costs six dual evaluations and a rejected attempt none. At output times `S` takes
+/// the step's CONTD5 polynomial, as `x` does.
+pub(super) fn dopri5<D: Dim, S: DualSystem<D>>(
+    problem: &Problem<'_, D, S>,
+    opts: &Options,
+    sens: &SensitivityOptions,
+) -> Result<Sensitivities<D>>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
+{
+    use tableau::{A, B, C};
+    let n = problem.x0.len();
+    let np = problem.system.n_params();
+    let m = match sens.wrt {
+        Wrt::All => n + np,
+        Wrt::Params => np,
+    };
+    let nm = n * m;
+    let r = D::from_usize(n);
+    let mut it = problem.integrator(Dopri5::<D>::new(), opts)?;
+    let mut z = stacked_start(problem.x0.as_slice(), m, sens.wrt);
+    let mut out = Saver::<Dyn>::new(&opts.save, it.direction(), problem.t0, &z);
+    let at_times = Saver::<Dyn>::needs_dense(&opts.save);
+    let mut dense = if at_times {
+        vec![DVector::zeros(z.len()); 5]
+    } else {
+        Vec::new()
+    };
+    // the last step's (t₀, h), passed again for a landing without a step (as the plain
+    // solve does)
+    let mut seg = (problem.t0, 0.0);
+    // K₁…K₇ (n × m each, column-major, one after the other), the stage argument's S
+    let mut kk = vec![0.0; 7 * nm];
+    let mut sy = vec![0.0; nm];
+    let mut y = OVector::<f64, D>::zeros_generic(r, U1);
+    let mut x0 = problem.x0.clone();
+    // what K₇ was evaluated at: the inputs and f(t₁, x₁), to tell FSAL from a fresh k₁
+    let mut k7_prev: Option<OVector<f64, D>> = None;
+    let (mut u, mut u_prev) = (Vec::new(), Vec::new());
+    let mut tangents = 0u64;
+    loop {
+        u.clear();
+        u.extend_from_slice(it.held_inputs());
+        x0.copy_from(it.x());
+        let accepted = it.stats().accepted;
+        if it.step()?.is_none() {
+            break;
+        }
+        if it.stats().accepted == accepted {
+            // a stop landed on without a step: the same state, a new time
+            z.rows_mut(0, n).copy_from_slice(it.x().as_slice());
+            out.step(it.t(), &z, at_times.then_some((seg.0, seg.1, &dense[..])));
+            continue;
+        }
+        let (t, h, _) = it.last_step();
+        let Some(k) = it.method().stages() else {
+            return Err(Error::invalid("method", "Dopri5 took a step without stages"));
+        };
+        let (s0, kk_rest) = (&z.as_slice()[n..], &mut kk[..]);
+        // K₁: the last step's K₇ when k₁ is its k₇ (same inputs, same value), else fresh
+        let fsal = k7_prev.as_ref().is_some_and(|k7| k7 == k[0]) && u == u_prev;
+        if fsal {
+            kk_rest.copy_within(6 * nm..7 * nm, 0);
+        } else {
+            problem.system.tangent(t, &x0, &u, s0, m, &mut kk_rest[..nm]);
+            tangents += 1;
+        }
+        for i in 1..7 {
+            // Yᵢ as the kernel formed it: x₀ + h·(aᵢ₀k₀ + aᵢ₁k₁ + …); x₁ itself for i = 6
+            if i < 6 {
+                for c in 0..n {
+                    let mut acc = A[i][0] * k[0][c];
+                    for j in 1..i {
+                        acc += A[i][j] * k[j][c];
+                    }
+                    y[c] = x0[c] + h * acc;
+                }
+            } else {
+                y.copy_from(it.x());
+            }
+            let (done, ahead) = kk_rest.split_at_mut(i * nm);
+            for e in 0..nm {
+                let mut acc = 0.0;
+                for j in 0..i {
+                    acc += A[i][j] * done[j * nm + e];
+                }
+                sy[e] = s0[e] + h * acc;
+            }
+            problem.system.tangent(t + C[i] * h, &y, &u, &sy, m, &mut ahead[..nm]);
+            tangents += 1;
+        }
+        if at_times {
+            dense[0].copy_from(&z);
+        }
+        // S₁ = S₀ + h Σ bᵢ Kᵢ: the last stage argument (the last row of A is b)
+        debug_assert_eq!(A[6][..6], B[..6]);
+        z.as_mut_slice()[n..].copy_from_slice(&sy);
+        z.rows_mut(0, n).copy_from_slice(it.x().as_slice());
+        crate::system::finite(z.as_slice(), t + h, crate::error::Quantity::State)?;
+        // (dense is empty unless output times need it)
+        if let [c0, c1, c2, c3, c4] = &mut dense[..] {
+            for e in 0..z.len() {
+                let (a, b) = (c0[e], z[e]);
+                let r = if e < n {
+                    contd5(h, a, b, |j| k[j][e])
+                } else {
+                    let q = e - n;
+                    contd5(h, a, b, |j| kk[j * nm + q])
+                };
+                [c0[e], c1[e], c2[e], c3[e], c4[e]] = r;
+            }
+        }
+        match &mut k7_prev {
+            Some(k7) => k7.copy_from(k[6]),
+            None => k7_prev = Some(k[6].clone()),
+        }
+        std::mem::swap(&mut u, &mut u_prev);
+        seg = (t, h);
+        out.step(it.t(), &z, at_times.then_some((t, h, &dense[..])));
+    }
+    let mut stats = it.stats();
+    stats.rhs_evals += tangents;
+    let (t, zs) = out.finish();
+    Ok(unstack(t, zs, n, m, sens.wrt, np, stats, "rk45"))
+}

@@ -152,7 +152,7 @@ where
     // solve does)
     let mut seg = (problem.t0, 0.0);
     // K₁…K₇ (n × m each, column-major, one after the other), the stage argument's S
-    let mut kk = vec![0.0; 7 * nm];
+    let mut kk: [Vec<f64>; 7] = std::array::from_fn(|_| vec![0.0; nm]);
     let mut sy = vec![0.0; nm];
     let mut y = OVector::<f64, D>::zeros_generic(r, U1);
     let mut x0 = problem.x0.clone();
@@ -178,39 +178,47 @@ where
         let Some(k) = it.method().stages() else {
             return Err(Error::invalid("method", "Dopri5 took a step without stages"));
         };
-        let (s0, kk_rest) = (&z.as_slice()[n..], &mut kk[..]);
+        let s0 = &z.as_slice()[n..];
         // K₁: the last step's K₇ when k₁ is its k₇ (same inputs, same value), else fresh
         let fsal = k7_prev.as_ref().is_some_and(|k7| k7 == k[0]) && u == u_prev;
         if fsal {
-            kk_rest.copy_within(6 * nm..7 * nm, 0);
+            let [k1s, .., k7s] = &mut kk;
+            k1s.copy_from_slice(k7s);
         } else {
-            problem.system.tangent(t, &x0, &u, s0, m, &mut kk_rest[..nm]);
+            problem.system.tangent(t, &x0, &u, s0, m, &mut kk[0]);
             tangents += 1;
         }
-        for i in 1..7 {
-            // Yᵢ as the kernel formed it: x₀ + h·(aᵢ₀k₀ + aᵢ₁k₁ + …); x₁ itself for i = 6
-            if i < 6 {
-                for c in 0..n {
-                    let mut acc = A[i][0] * k[0][c];
-                    for j in 1..i {
-                        acc += A[i][j] * k[j][c];
+        let ks = k.map(|v| &v.as_slice()[..n]);
+        let (xs, s0) = (&x0.as_slice()[..n], &s0[..nm]);
+        // stage i from the stages j before it (those with aᵢⱼ ≠ 0, as the kernel wrote
+        // them): Yᵢ = x₀ + h·(aᵢⱼ₀kⱼ₀ + …) in the kernel's order, so bit for bit its
+        // argument (x₁ itself for the last stage), the same combination of the Kⱼ for
+        // S₀ + h Σ aᵢⱼ Kⱼ, then Kᵢ at (t + cᵢh, Yᵢ)
+        macro_rules! stage {
+            ($i:literal, $y:expr; $j0:literal $(, $j:literal)*) => {{
+                if let Some(y) = $y {
+                    let o = &mut y.as_mut_slice()[..n];
+                    for c in 0..n {
+                        o[c] = xs[c] + h * (A[$i][$j0] * ks[$j0][c] $(+ A[$i][$j] * ks[$j][c])*);
                     }
-                    y[c] = x0[c] + h * acc;
                 }
-            } else {
-                y.copy_from(it.x());
-            }
-            let (done, ahead) = kk_rest.split_at_mut(i * nm);
-            for e in 0..nm {
-                let mut acc = 0.0;
-                for j in 0..i {
-                    acc += A[i][j] * done[j * nm + e];
+                let (done, ahead) = kk.split_at_mut($i);
+                let d: [&[f64]; $i] = std::array::from_fn(|j| &done[j][..nm]);
+                let o = &mut sy[..nm];
+                for e in 0..nm {
+                    o[e] = s0[e] + h * (A[$i][$j0] * d[$j0][e] $(+ A[$i][$j] * d[$j][e])*);
                 }
-                sy[e] = s0[e] + h * acc;
-            }
-            problem.system.tangent(t + C[i] * h, &y, &u, &sy, m, &mut ahead[..nm]);
-            tangents += 1;
+                let yi = if $i < 6 { &y } else { it.x() };
+                problem.system.tangent(t + C[$i] * h, yi, &u, &sy, m, &mut ahead[0]);
+                tangents += 1;
+            }};
         }
+        stage!(1, Some(&mut y); 0);
+        stage!(2, Some(&mut y); 0, 1);
+        stage!(3, Some(&mut y); 0, 1, 2);
+        stage!(4, Some(&mut y); 0, 1, 2, 3);
+        stage!(5, Some(&mut y); 0, 1, 2, 3, 4);
+        stage!(6, None::<&mut OVector<f64, D>>; 0, 2, 3, 4, 5);
         if at_times {
             dense[0].copy_from(&z);
         }
@@ -227,7 +235,7 @@ where
                     contd5(h, a, b, |j| k[j][e])
                 } else {
                     let q = e - n;
-                    contd5(h, a, b, |j| kk[j * nm + q])
+                    contd5(h, a, b, |j| kk[j][q])
                 };
                 [c0[e], c1[e], c2[e], c3[e], c4[e]] = r;
             }

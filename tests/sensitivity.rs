@@ -453,6 +453,29 @@ fn parameters_only() {
     assert!(matches!(e, Error::InvalidInput { what: "wrt", .. }), "{e}");
 }
 
+/// `∂x(t_end)/∂(x₀, geometry)` of the differential drive by central differences of
+/// `end(x₀, geometry)` (steps 1e-6 in `x₀`, 1e-6 relative in the geometry).
+fn drive_central(
+    end: impl Fn(SVector<f64, 3>, &[f64]) -> SVector<f64, 3>,
+    x0: SVector<f64, 3>,
+    geometry: [f64; 3],
+) -> DMatrix<f64> {
+    let mut want = DMatrix::zeros(3, 6);
+    for j in 0..6 {
+        let d = if j < 3 { 1e-6 } else { 1e-6 * geometry[j - 3] };
+        let (mut xp, mut xm, mut gp, mut gm) = (x0, x0, geometry, geometry);
+        if j < 3 {
+            xp[j] += d;
+            xm[j] -= d;
+        } else {
+            gp[j - 3] += d;
+            gm[j - 3] -= d;
+        }
+        want.set_column(j, &((end(xp, &gp) - end(xm, &gm)) / (2.0 * d)));
+    }
+    want
+}
+
 /// Implicit Euler's staggered direct scheme on a driven model with parameters (the
 /// differential drive's wheel radii and track over a wheel-speed log, inputs switching at
 /// every control time): `x` and the steps are the plain solve's, bit for bit; `S` is the
@@ -491,19 +514,7 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
             .last()
             .1
     };
-    let mut want = DMatrix::zeros(3, 6);
-    for j in 0..6 {
-        let d = if j < 3 { 1e-6 } else { 1e-6 * geometry[j - 3] };
-        let (mut xp, mut xm, mut gp, mut gm) = (x0, x0, geometry, geometry);
-        if j < 3 {
-            xp[j] += d;
-            xm[j] -= d;
-        } else {
-            gp[j - 3] += d;
-            gm[j - 3] -= d;
-        }
-        want.set_column(j, &((end(xp, &gp) - end(xm, &gm)) / (2.0 * d)));
-    }
+    let want = drive_central(end, x0, geometry);
     let got = s.s.last().unwrap();
     let e = max_rel(got, &want);
     assert!(
@@ -603,19 +614,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
             .last()
             .1
     };
-    let mut want = DMatrix::zeros(3, 6);
-    for j in 0..6 {
-        let d = if j < 3 { 1e-6 } else { 1e-6 * geometry[j - 3] };
-        let (mut xp, mut xm, mut gp, mut gm) = (x0, x0, geometry, geometry);
-        if j < 3 {
-            xp[j] += d;
-            xm[j] -= d;
-        } else {
-            gp[j - 3] += d;
-            gm[j - 3] -= d;
-        }
-        want.set_column(j, &((end(xp, &gp) - end(xm, &gm)) / (2.0 * d)));
-    }
+    let want = drive_central(end, x0, geometry);
     let e = max_rel(s.s.last().unwrap(), &want);
     assert!(e < 1e-7, "staggered S vs central differences {e:e}");
     // output times: x as the plain solve's dense output, S as the augmented one's

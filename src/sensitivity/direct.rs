@@ -3,7 +3,7 @@
 //! times and the step count are the plain solve's bit for bit, and after each accepted
 //! step the derivative of that step's map is applied to `S`.
 
-use super::{Sensitivities, SensitivityOptions, Wrt, stacked_start, unstack};
+use super::{Sensitivities, SensitivityOptions, stacked_start, unstack};
 use crate::error::{Error, Result};
 use crate::integrator::save::Saver;
 use crate::linalg::{Lu, LuDim};
@@ -30,10 +30,7 @@ where
 {
     let n = problem.x0.len();
     let np = problem.system.n_params();
-    let (m, x0_cols) = match sens.wrt {
-        Wrt::All => (n + np, n),
-        Wrt::Params => (np, 0),
-    };
+    let (m, x0_cols) = sens.wrt.columns(n, np);
     let r = D::from_usize(n);
     let mut it = problem.integrator(method, opts)?;
     // z = (x, vec S), the stacked state the saver keeps (as the augmented solve's)
@@ -49,7 +46,6 @@ where
         unit[i + i * n] = 1.0;
     }
     let mut jp = vec![0.0; n * (n + np)];
-    let mut fx = OVector::<f64, D>::zeros_generic(r, U1);
     let mut mat = OMatrix::<f64, D, D>::zeros_generic(r, r);
     let mut col = OVector::<f64, D>::zeros_generic(r, U1);
     let mut u = Vec::with_capacity(it.held_inputs().len());
@@ -66,9 +62,7 @@ where
             let x1 = it.x();
             // the time implicit Euler evaluated f at
             let t1 = t + h;
-            problem
-                .system
-                .rhs_sensitivity(t1, x1, &u, &unit, n + np, &mut fx, &mut jp);
+            problem.system.tangent(t1, x1, &u, &unit, n + np, &mut jp);
             for c in 0..n {
                 for i in 0..n {
                     mat[(i, c)] = -h * jp[i + c * n];
@@ -131,12 +125,11 @@ where
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
 {
     use tableau::{A, B, C};
+    // the last stage argument is the step's end (FSAL), so S₁ is the last stage's S
+    debug_assert_eq!(A[6][..6], B[..6]);
     let n = problem.x0.len();
     let np = problem.system.n_params();
-    let m = match sens.wrt {
-        Wrt::All => n + np,
-        Wrt::Params => np,
-    };
+    let (m, _) = sens.wrt.columns(n, np);
     let nm = n * m;
     let r = D::from_usize(n);
     let mut it = problem.integrator(Dopri5::<D>::new(), opts)?;
@@ -192,15 +185,13 @@ where
         let (xs, s0) = (&x0.as_slice()[..n], &s0[..nm]);
         // stage i from the stages j before it (those with aᵢⱼ ≠ 0, as the kernel wrote
         // them): Yᵢ = x₀ + h·(aᵢⱼ₀kⱼ₀ + …) in the kernel's order, so bit for bit its
-        // argument (x₁ itself for the last stage), the same combination of the Kⱼ for
+        // argument (x₁ for the last stage), the same combination of the Kⱼ for
         // S₀ + h Σ aᵢⱼ Kⱼ, then Kᵢ at (t + cᵢh, Yᵢ)
         macro_rules! stage {
-            ($i:literal, $y:expr; $j0:literal $(, $j:literal)*) => {{
-                if let Some(y) = $y {
-                    let o = &mut y.as_mut_slice()[..n];
-                    for c in 0..n {
-                        o[c] = xs[c] + h * (A[$i][$j0] * ks[$j0][c] $(+ A[$i][$j] * ks[$j][c])*);
-                    }
+            ($i:literal; $j0:literal $(, $j:literal)*) => {{
+                let o = &mut y.as_mut_slice()[..n];
+                for c in 0..n {
+                    o[c] = xs[c] + h * (A[$i][$j0] * ks[$j0][c] $(+ A[$i][$j] * ks[$j][c])*);
                 }
                 let (done, ahead) = kk.split_at_mut($i);
                 let d: [&[f64]; $i] = std::array::from_fn(|j| &done[j][..nm]);
@@ -208,22 +199,20 @@ where
                 for e in 0..nm {
                     o[e] = s0[e] + h * (A[$i][$j0] * d[$j0][e] $(+ A[$i][$j] * d[$j][e])*);
                 }
-                let yi = if $i < 6 { &y } else { it.x() };
-                problem.system.tangent(t + C[$i] * h, yi, &u, &sy, m, &mut ahead[0]);
+                problem.system.tangent(t + C[$i] * h, &y, &u, &sy, m, &mut ahead[0]);
                 tangents += 1;
             }};
         }
-        stage!(1, Some(&mut y); 0);
-        stage!(2, Some(&mut y); 0, 1);
-        stage!(3, Some(&mut y); 0, 1, 2);
-        stage!(4, Some(&mut y); 0, 1, 2, 3);
-        stage!(5, Some(&mut y); 0, 1, 2, 3, 4);
-        stage!(6, None::<&mut OVector<f64, D>>; 0, 2, 3, 4, 5);
+        stage!(1; 0);
+        stage!(2; 0, 1);
+        stage!(3; 0, 1, 2);
+        stage!(4; 0, 1, 2, 3);
+        stage!(5; 0, 1, 2, 3, 4);
+        stage!(6; 0, 2, 3, 4, 5);
         if at_times {
             dense[0].copy_from(&z);
         }
         // S₁ = S₀ + h Σ bᵢ Kᵢ: the last stage argument (the last row of A is b)
-        debug_assert_eq!(A[6][..6], B[..6]);
         z.as_mut_slice()[n..].copy_from_slice(&sy);
         z.rows_mut(0, n).copy_from_slice(it.x().as_slice());
         crate::system::finite(z.as_slice(), t + h, crate::error::Quantity::State)?;

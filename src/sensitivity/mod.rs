@@ -68,7 +68,6 @@ use crate::control::Tolerance;
 use crate::error::{Error, Result};
 use crate::linalg::LuDim;
 use crate::methods::{Dopri5, Exact, Flow, ImplicitEuler, Method};
-
 use crate::options::Options;
 use crate::problem::Problem;
 use crate::solution::{Solution, Stats};
@@ -148,6 +147,17 @@ pub enum Wrt {
     Params,
 }
 
+impl Wrt {
+    /// `(m, n_x0)`: the columns of `S` for a state of `n` components and `n_p`
+    /// parameters, and how many of them are `∂x/∂x₀`'s (`(n + n_p, n)` or `(n_p, 0)`).
+    fn columns(self, n: usize, np: usize) -> (usize, usize) {
+        match self {
+            Wrt::All => (n + np, n),
+            Wrt::Params => (np, 0),
+        }
+    }
+}
+
 /// `x' = f`, `Ṡ = J·S + [0 | ∂f/∂p]` as one [`System`] on the stacked state
 /// `z = (x, vec S)` of `n·(1 + m)` components (`m = n + n_p`, or `m = n_p` for
 /// [`Wrt::Params`]: `Ṡ = J·S + ∂f/∂p`).
@@ -169,10 +179,7 @@ where
         Augmented {
             sys,
             n,
-            m: match wrt {
-                Wrt::All => n + np,
-                Wrt::Params => np,
-            },
+            m: wrt.columns(n, np).0,
             _dim: PhantomData,
         }
     }

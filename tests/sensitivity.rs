@@ -1,7 +1,7 @@
 //! Forward sensitivities: against closed forms, the discrete propagators of the methods,
 //! and central differences of whole solves.
 
-use nalgebra::{DMatrix, Matrix2, SVector, Vector2, vector};
+use nalgebra::{DMatrix, Dyn, Matrix, Matrix2, SVector, Storage, Vector2, vector};
 use reckon::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, ImplicitEuler, Rodas5P};
 use reckon::models::unicycle;
 use reckon::sensitivity::{self, Augment, Sensitivities, SensitivityOptions, Wrt};
@@ -28,7 +28,11 @@ fn linear() -> impl DualSystem<nalgebra::Const<2>> {
     model!(|_, x: [S; 2]| vector![-x[0] + x[1], -2.0 * x[1]])
 }
 
-fn max_rel(a: &DMatrix<f64>, b: &DMatrix<f64>) -> f64 {
+fn max_rel<A, B>(a: &Matrix<f64, Dyn, Dyn, A>, b: &Matrix<f64, Dyn, Dyn, B>) -> f64
+where
+    A: Storage<f64, Dyn, Dyn>,
+    B: Storage<f64, Dyn, Dyn>,
+{
     (a - b).amax() / b.amax()
 }
 
@@ -163,7 +167,7 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
         ($name:expr, $method:expr, $o:expr) => {{
             let s = sens(&p, $method, $o);
             assert_eq!(s.n_params, 1);
-            let got = s.s.last().unwrap().clone();
+            let got = s.last_s().into_owned();
             let want = central(|| $method, $o, x0, 1.5);
             let e = max_rel(&got, &want);
             assert!(
@@ -186,7 +190,7 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
             let inner = s.t[1..s.t.len() - 1].to_vec();
             let steps = Options::default().fixed(2.0).breakpoints(inner).rtol(1e-12).atol(1e-14);
             let want = central(|| $method, &steps, x0, 1.5);
-            let e = max_rel(s.s.last().unwrap(), &want);
+            let e = max_rel(&s.last_s(), &want);
             assert!(e < 1e-6, "{} (steps replayed): {e:e}", $name);
             s.t.len()
         }};
@@ -217,7 +221,7 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
         x0,
         1.5,
     );
-    let e = max_rel(s.s.last().unwrap(), &free);
+    let e = max_rel(&s.last_s(), &free);
     assert!(e > 1e-6 && e < 1e-3, "implicit euler, free steps: {e:e}");
     check!("bdf, fixed", Bdf::default(), &fixed);
     check!("bdf, adaptive", Bdf::default(), &adaptive);
@@ -244,7 +248,7 @@ fn x_part_is_the_plain_solve_bit_for_bit_for_explicit_methods() {
     )
     .unwrap();
     assert!(c.t.len() > s.t.len(), "{} vs {}", c.t.len(), s.t.len());
-    assert!(max_rel(c.s.last().unwrap(), s.s.last().unwrap()) < 1e-6);
+    assert!(max_rel(&c.last_s(), &s.last_s()) < 1e-6);
 }
 
 /// The unicycle's exact flow: `∂(x, y, θ)/∂(x₀, y₀, θ₀) = [[1, 0, −(y − y₀)], [0, 1, x − x₀], [0, 0, 1]]`
@@ -407,7 +411,7 @@ fn parameters_only() {
     let o = Options::default().rtol(1e-9).atol(1e-11);
     let a = sensitivity::solve(&p, Dopri5::default(), &o, &SensitivityOptions::default()).unwrap();
     let b = sensitivity::solve(&p, Dopri5::default(), &o, &only).unwrap();
-    assert_eq!((b.s[0].nrows(), b.s[0].ncols()), (2, 1));
+    assert_eq!((b.s(0).nrows(), b.s(0).ncols()), (2, 1));
     assert_eq!(b.wrt_x0(0).ncols(), 0);
     assert_eq!(b.wrt_params(0), DMatrix::zeros(2, 1));
     assert_eq!(a.t, b.t);
@@ -497,7 +501,7 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     let plain = p.solve(ImplicitEuler::default(), &o).unwrap();
     assert_eq!((&plain.t, &plain.x), (&s.t, &s.x));
     assert!(s.t.len() > 50, "{} steps", s.t.len());
-    assert_eq!((s.s[0].nrows(), s.s[0].ncols()), (3, 6));
+    assert_eq!((s.s(0).nrows(), s.s(0).ncols()), (3, 6));
     // replay the steps: every step end a breakpoint, one fixed step per interval
     let inner = s.t[1..s.t.len() - 1].to_vec();
     let replay = Options::default()
@@ -515,8 +519,8 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
             .1
     };
     let want = drive_central(end, x0, geometry);
-    let got = s.s.last().unwrap();
-    let e = max_rel(got, &want);
+    let got = s.last_s();
+    let e = max_rel(&got, &want);
     assert!(
         e < 1e-6,
         "staggered S differs from replayed central differences by {e:e}\n{got}{want}"
@@ -534,8 +538,8 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     for (k, &ta) in at.iter().enumerate() {
         let j = s.t.partition_point(|&t| t < ta);
         let theta = (ta - s.t[j - 1]) / (s.t[j] - s.t[j - 1]);
-        let lin = &s.s[j - 1] + (&s.s[j] - &s.s[j - 1]) * theta;
-        let e = (&si.s[k] - &lin).amax() / lin.amax();
+        let lin = s.s(j - 1) + (s.s(j) - s.s(j - 1)) * theta;
+        let e = (si.s(k) - &lin).amax() / lin.amax();
         assert!(e < 1e-12, "t = {ta}: {e:e}");
     }
     // the end alone: the same last S
@@ -547,7 +551,7 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     )
     .unwrap();
     assert_eq!(se.t, vec![0.0, 20.0]);
-    assert_eq!(se.s.last(), s.s.last());
+    assert_eq!(se.last_s(), s.last_s());
     // S in the error control: the augmented system, its own steps
     let c = sensitivity::solve(
         &p,
@@ -557,7 +561,7 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     )
     .unwrap();
     assert_ne!(c.t.len(), s.t.len());
-    let e = max_rel(c.s.last().unwrap(), got);
+    let e = max_rel(&c.last_s(), &got);
     assert!(e < 1e-2, "error-controlled S vs staggered: {e:e}");
 }
 
@@ -593,7 +597,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     );
     // tangents: 6 per accepted step, plus K₁ at t₀ and after each of the 9 switches
     assert_eq!(s.stats.rhs_evals - plain.stats.rhs_evals, 6 * acc + 10);
-    assert_eq!((s.s[0].nrows(), s.s[0].ncols()), (3, 6));
+    assert_eq!((s.s(0).nrows(), s.s(0).ncols()), (3, 6));
     // the augmented system on the same steps
     let inner = s.t[1..s.t.len() - 1].to_vec();
     let replay = Options::default().fixed(100.0).breakpoints(inner);
@@ -601,7 +605,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     let aug = sensitivity::solve(&p, Dopri5::default(), &replay, &ctl).unwrap();
     assert_eq!(aug.t, s.t);
     for k in 0..s.t.len() {
-        let e = max_rel(&s.s[k], &aug.s[k]);
+        let e = max_rel(&s.s(k), &aug.s(k));
         assert!(e < 1e-12, "t = {}: staggered vs augmented {e:e}", s.t[k]);
     }
     // and the derivative of those replayed solves, by central differences
@@ -615,7 +619,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
             .1
     };
     let want = drive_central(end, x0, geometry);
-    let e = max_rel(s.s.last().unwrap(), &want);
+    let e = max_rel(&s.last_s(), &want);
     assert!(e < 1e-7, "staggered S vs central differences {e:e}");
     // output times: x as the plain solve's dense output, S as the augmented one's
     let at: Vec<f64> = (1..40).map(|k| 0.5 * k as f64 - 0.013).collect();
@@ -625,7 +629,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     assert_eq!((&si.t, &si.x), (&pi.t, &pi.x));
     let ai = sensitivity::solve(&p, Dopri5::default(), &replay.clone().save(Save::At(at.clone())), &ctl).unwrap();
     for (k, ta) in at.iter().enumerate() {
-        let e = max_rel(&si.s[k], &ai.s[k]);
+        let e = max_rel(&si.s(k), &ai.s(k));
         assert!(e < 1e-12, "t = {ta}: interpolated S {e:e}");
     }
     // the end alone and every 4th step: the same S as every step
@@ -636,7 +640,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
         &SensitivityOptions::default(),
     )
     .unwrap();
-    assert_eq!((se.t.len(), se.s.last()), (2, s.s.last()));
+    assert_eq!((se.t.len(), se.last_s()), (2, s.last_s()));
     let s4 = sensitivity::solve(
         &p,
         Dopri5::default(),
@@ -646,6 +650,6 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     .unwrap();
     for (k, t) in s4.t.iter().enumerate() {
         let j = s.t.iter().position(|u| u == t).unwrap();
-        assert_eq!(s4.s[k], s.s[j]);
+        assert_eq!(s4.s(k), s.s(j));
     }
 }

@@ -261,7 +261,7 @@ where
                 ));
             }
         }
-        let at_times = save::Saver::<D>::needs_dense(&opts.save);
+        let at_times = save::needs_dense(&opts.save);
         let keep_dense = opts.dense || !problem.events.is_empty() || at_times;
         // the polynomials are computed for events and output times, but kept in the
         // solution only when asked (`Options::dense`)

@@ -10,7 +10,47 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 /// A step's start, size and dense coefficients.
 pub(crate) type Segment<'c, D> = (f64, f64, &'c [OVector<f64, D>]);
 
-pub(crate) struct Saver<D: Dim>
+/// Where a [`Saver`] puts the states it keeps: a `Vec` of states for a solve, or a store
+/// that splits each state as it comes (the sensitivity schemes keep `x` and a flat `S`,
+/// with nothing allocated per point).
+pub(crate) trait Store<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Keep `x`.
+    fn push(&mut self, x: &OVector<f64, D>);
+    /// Keep the dense polynomial `Σ cⱼ θʲ` at `θ` (Horner).
+    fn push_dense(&mut self, c: &[OVector<f64, D>], theta: f64) {
+        self.push(&horner(c, theta));
+    }
+    /// Keep `x`, taking it.
+    fn push_owned(&mut self, x: OVector<f64, D>) {
+        self.push(&x);
+    }
+    /// Room for `n` more states.
+    fn reserve(&mut self, n: usize);
+}
+
+impl<D: Dim> Store<D> for Vec<OVector<f64, D>>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    #[inline(always)]
+    fn push(&mut self, x: &OVector<f64, D>) {
+        Vec::push(self, x.clone());
+    }
+    fn push_dense(&mut self, c: &[OVector<f64, D>], theta: f64) {
+        Vec::push(self, horner(c, theta));
+    }
+    fn push_owned(&mut self, x: OVector<f64, D>) {
+        Vec::push(self, x);
+    }
+    fn reserve(&mut self, n: usize) {
+        Vec::reserve(self, n);
+    }
+}
+
+pub(crate) struct Saver<D: Dim, St = Vec<OVector<f64, D>>>
 where
     DefaultAllocator: Allocator<D>,
 {
@@ -24,7 +64,7 @@ where
     /// The latest step end, kept for the end of the run when it was not stored.
     pending: Option<(f64, OVector<f64, D>)>,
     t: Vec<f64>,
-    x: Vec<OVector<f64, D>>,
+    x: St,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -40,6 +80,21 @@ where
     DefaultAllocator: Allocator<D>,
 {
     pub(crate) fn new(save: &Save, dir: f64, t0: f64, x0: &OVector<f64, D>) -> Self {
+        Self::with_store(save, dir, t0, x0, Vec::new())
+    }
+}
+
+/// Whether a run saving `save` needs each step's dense polynomial (output times).
+pub(crate) fn needs_dense(save: &Save) -> bool {
+    matches!(save, Save::At(_))
+}
+
+impl<D: Dim, St: Store<D>> Saver<D, St>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// A saver keeping its states in `store`.
+    pub(crate) fn with_store(save: &Save, dir: f64, t0: f64, x0: &OVector<f64, D>, store: St) -> Self {
         let (mode, at) = match save {
             Save::Steps => (Mode::Steps, Vec::new()),
             Save::Every(k) => (Mode::Every(*k), Vec::new()),
@@ -54,17 +109,17 @@ where
             seen: 0,
             pending: None,
             t: Vec::new(),
-            x: Vec::new(),
+            x: store,
         };
         if mode == Mode::At {
             while s.next < s.at.len() && s.at[s.next] == t0 {
                 s.t.push(t0);
-                s.x.push(x0.clone());
+                s.x.push(x0);
                 s.next += 1;
             }
         } else {
             s.t.push(t0);
-            s.x.push(x0.clone());
+            s.x.push(x0);
         }
         s
     }
@@ -83,7 +138,7 @@ where
     #[inline(always)]
     pub(super) fn push(&mut self, t: f64, x: &OVector<f64, D>) {
         self.t.push(t);
-        self.x.push(x.clone());
+        self.x.push(x);
     }
 
     /// Room for `n` more kept steps when every step is kept (a run that knows a lower
@@ -93,11 +148,6 @@ where
             self.t.reserve(n);
             self.x.reserve(n);
         }
-    }
-
-    /// Whether the run needs each step's dense polynomial (output times).
-    pub(crate) fn needs_dense(save: &Save) -> bool {
-        matches!(save, Save::At(_))
     }
 
     /// An accepted step (or a landing on a stop) ending at `(t1, x1)`; `seg` is the step's
@@ -120,12 +170,11 @@ where
                 self.hold(t1, x1);
                 while self.next < self.at.len() && self.dir * (self.at[self.next] - t1) <= 0.0 {
                     let ta = self.at[self.next];
-                    let xa = match seg {
-                        Some((t0, h, c)) if ta != t1 && !c.is_empty() => horner(c, (ta - t0) / h),
-                        _ => x1.clone(),
-                    };
+                    match seg {
+                        Some((t0, h, c)) if ta != t1 && !c.is_empty() => self.x.push_dense(c, (ta - t0) / h),
+                        _ => self.x.push(x1),
+                    }
                     self.t.push(ta);
-                    self.x.push(xa);
                     self.next += 1;
                 }
             }
@@ -145,11 +194,11 @@ where
 
     /// The run ended: store the last step end if it was held back (for output times:
     /// only when the run stopped before the last of them, at a terminal event).
-    pub(crate) fn finish(mut self) -> (Vec<f64>, Vec<OVector<f64, D>>) {
+    pub(crate) fn finish(mut self) -> (Vec<f64>, St) {
         let keep = self.mode != Mode::At || self.next < self.at.len();
         if let Some((t, x)) = self.pending.take().filter(|_| keep) {
             self.t.push(t);
-            self.x.push(x);
+            self.x.push_owned(x);
         }
         (self.t, self.x)
     }

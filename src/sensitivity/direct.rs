@@ -3,9 +3,9 @@
 //! times and the step count are the plain solve's bit for bit, and after each accepted
 //! step the derivative of that step's map is applied to `S`.
 
-use super::{Sensitivities, SensitivityOptions, stacked_start, unstack};
+use super::{Sensitivities, SensitivityOptions, Split, stacked_start};
 use crate::error::{Error, Result};
-use crate::integrator::save::Saver;
+use crate::integrator::save::{Saver, needs_dense};
 use crate::linalg::{Lu, LuDim};
 use crate::methods::dopri5::{contd5, tableau};
 use crate::methods::{Dopri5, ImplicitEuler};
@@ -35,8 +35,8 @@ where
     let mut it = problem.integrator(method, opts)?;
     // z = (x, vec S), the stacked state the saver keeps (as the augmented solve's)
     let mut z = stacked_start(problem.x0.as_slice(), m, sens.wrt);
-    let mut out = Saver::<Dyn>::new(&opts.save, it.direction(), problem.t0, &z);
-    let at_times = Saver::<Dyn>::needs_dense(&opts.save);
+    let mut out = Saver::<Dyn, _>::with_store(&opts.save, it.direction(), problem.t0, &z, Split::<D>::new(n, m));
+    let at_times = needs_dense(&opts.save);
     // the step's linear interpolant in z (implicit Euler's dense output, c₀ + θ·c₁)
     let mut dense = [z.clone(), DVector::zeros(z.len())];
     let mut seg = (problem.t0, 0.0);
@@ -104,8 +104,8 @@ where
     let mut stats = it.stats();
     stats.jacobian_evals += extra;
     stats.lu_decompositions += extra;
-    let (t, zs) = out.finish();
-    Ok(unstack(t, zs, n, m, sens.wrt, np, stats, "implicit-euler"))
+    let (t, split) = out.finish();
+    Ok(split.into_sensitivities(t, sens.wrt, np, stats, "implicit-euler"))
 }
 
 /// The staggered direct scheme for Dormand–Prince 5(4) (internal differentiation of the
@@ -134,8 +134,8 @@ where
     let r = D::from_usize(n);
     let mut it = problem.integrator(Dopri5::<D>::new(), opts)?;
     let mut z = stacked_start(problem.x0.as_slice(), m, sens.wrt);
-    let mut out = Saver::<Dyn>::new(&opts.save, it.direction(), problem.t0, &z);
-    let at_times = Saver::<Dyn>::needs_dense(&opts.save);
+    let mut out = Saver::<Dyn, _>::with_store(&opts.save, it.direction(), problem.t0, &z, Split::<D>::new(n, m));
+    let at_times = needs_dense(&opts.save);
     let mut dense = if at_times {
         vec![DVector::zeros(z.len()); 5]
     } else {
@@ -239,6 +239,6 @@ where
     }
     let mut stats = it.stats();
     stats.rhs_evals += tangents;
-    let (t, zs) = out.finish();
-    Ok(unstack(t, zs, n, m, sens.wrt, np, stats, "rk45"))
+    let (t, split) = out.finish();
+    Ok(split.into_sensitivities(t, sens.wrt, np, stats, "rk45"))
 }

@@ -66,6 +66,7 @@
 
 use crate::control::Tolerance;
 use crate::error::{Error, Result};
+use crate::integrator::save::Store;
 use crate::linalg::LuDim;
 use crate::methods::{Dopri5, Exact, Flow, ImplicitEuler, Method};
 use crate::options::Options;
@@ -73,7 +74,7 @@ use crate::problem::Problem;
 use crate::solution::{Solution, Stats};
 use crate::system::{DualSystem, System};
 use nalgebra::allocator::Allocator;
-use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, U1};
+use nalgebra::{DMatrix, DMatrixView, DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, U1};
 use num_dual::{Derivative, DualVec64};
 use std::marker::PhantomData;
 
@@ -421,8 +422,78 @@ fn stacked_start(x0: &[f64], m: usize, wrt: Wrt) -> DVector<f64> {
     z
 }
 
-/// The saved stacked states `(x, vec S)` as [`Sensitivities`]: each `S` takes over its
-/// stacked state's buffer (the `x` part shifted out), so nothing is allocated per point.
+/// The saved stacked states `z = (x, vec S)` split as they come ([`Store`]): `x` at `D`,
+/// `S` appended to one flat column-major buffer, so nothing is allocated per point (for a
+/// fixed-size `x`).
+pub(super) struct Split<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    n: usize,
+    m: usize,
+    x: Vec<OVector<f64, D>>,
+    s: Vec<f64>,
+}
+
+impl<D: Dim> Split<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    pub(super) fn new(n: usize, m: usize) -> Self {
+        Split {
+            n,
+            m,
+            x: Vec::new(),
+            s: Vec::new(),
+        }
+    }
+    pub(super) fn into_sensitivities(
+        self,
+        t: Vec<f64>,
+        wrt: Wrt,
+        n_params: usize,
+        stats: Stats,
+        method: &'static str,
+    ) -> Sensitivities<D> {
+        Sensitivities {
+            t,
+            x: self.x,
+            s_flat: self.s,
+            n: self.n,
+            m: self.m,
+            wrt,
+            n_params,
+            stats,
+            method,
+        }
+    }
+}
+
+impl<D: Dim> Store<Dyn> for Split<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn push(&mut self, z: &DVector<f64>) {
+        let (x, s) = z.as_slice().split_at(self.n);
+        self.x
+            .push(OVector::from_column_slice_generic(D::from_usize(self.n), U1, x));
+        self.s.extend_from_slice(s);
+    }
+    /// Element by element, the same operations as [`horner`](crate::solution::horner).
+    fn push_dense(&mut self, c: &[DVector<f64>], theta: f64) {
+        let (last, rest) = c.split_last().expect("a dense polynomial has coefficients");
+        let at = |e: usize| rest.iter().rev().fold(last[e], |y, cj| y * theta + cj[e]);
+        self.x
+            .push(OVector::from_fn_generic(D::from_usize(self.n), U1, |i, _| at(i)));
+        self.s.extend((self.n..last.len()).map(at));
+    }
+    fn reserve(&mut self, k: usize) {
+        self.x.reserve(k);
+        self.s.reserve(k * self.n * self.m);
+    }
+}
+
+/// The augmented solve's saved stacked states as [`Sensitivities`].
 #[allow(clippy::too_many_arguments)]
 fn unstack<D: Dim>(
     t: Vec<f64>,
@@ -437,24 +508,12 @@ fn unstack<D: Dim>(
 where
     DefaultAllocator: Allocator<D>,
 {
-    let r = D::from_usize(n);
-    let mut x = Vec::with_capacity(zs.len());
-    let mut s = Vec::with_capacity(zs.len());
-    for z in zs {
-        x.push(OVector::<f64, D>::from_column_slice_generic(r, U1, &z.as_slice()[..n]));
-        let mut v: Vec<f64> = z.data.into();
-        v.drain(..n);
-        s.push(DMatrix::from_vec(n, m, v));
+    let mut split = Split::new(n, m);
+    Store::<Dyn>::reserve(&mut split, zs.len());
+    for z in &zs {
+        Store::<Dyn>::push(&mut split, z);
     }
-    Sensitivities {
-        x,
-        s,
-        t,
-        wrt,
-        n_params,
-        stats,
-        method,
-    }
+    split.into_sensitivities(t, wrt, n_params, stats, method)
 }
 
 impl<D: Dim, F: DualFlow<D>> Augment<D> for Exact<F>
@@ -488,9 +547,10 @@ where
     pub t: Vec<f64>,
     /// States at the saved times.
     pub x: Vec<OVector<f64, D>>,
-    /// `S = ∂x/∂(x₀, p)` at the saved times, `n × (n + n_p)` (`∂x/∂p`, `n × n_p`, for
-    /// [`Wrt::Params`]).
-    pub s: Vec<DMatrix<f64>>,
+    /// `S` at the saved times, one after the other, each `n × m` column-major ([`s`](Self::s)).
+    s_flat: Vec<f64>,
+    n: usize,
+    m: usize,
     /// The columns `S` carries.
     pub wrt: Wrt,
     /// Number of model parameters.
@@ -508,21 +568,44 @@ impl<D: Dim> Sensitivities<D>
 where
     DefaultAllocator: Allocator<D>,
 {
+    /// `S(t_k) = ∂x(t_k)/∂(x₀, p)`, `n × (n + n_p)` (`∂x/∂p`, `n × n_p`, for
+    /// [`Wrt::Params`]), a view into the run's one buffer.
+    ///
+    /// ```
+    /// use reckon::{model, Options, Problem, methods::ExplicitEuler, sensitivity::{self, SensitivityOptions}};
+    /// use nalgebra::vector;
+    /// // x' = −k·x, one explicit Euler step of h = 0.1: x₁ = (1 − hk)·x₀
+    /// let f = model!(|_, x: [S; 1], p: [S; 1] = [2.0]| vector![-(p[0] * x[0])]);
+    /// let p = Problem::new(&f, vector![3.0], (0.0, 0.1));
+    /// let sol = sensitivity::solve(&p, ExplicitEuler, &Options::default().fixed(0.1), &SensitivityOptions::default()).unwrap();
+    /// let s = sol.s(1);
+    /// assert_eq!(s.shape(), (1, 2));
+    /// // ∂x₁/∂x₀ = 1 − hk, ∂x₁/∂k = −h·x₀
+    /// assert!((s[(0, 0)] - 0.8).abs() < 1e-15 && (s[(0, 1)] + 0.3).abs() < 1e-15);
+    /// ```
+    pub fn s(&self, k: usize) -> DMatrixView<'_, f64> {
+        let len = self.n * self.m;
+        DMatrixView::from_slice(&self.s_flat[k * len..(k + 1) * len], self.n, self.m)
+    }
+    /// `S` at the last saved time.
+    pub fn last_s(&self) -> DMatrixView<'_, f64> {
+        self.s(self.t.len() - 1)
+    }
     /// `∂x(t_k)/∂x₀` (`n × n`; `n × 0` when the solve had [`Wrt::Params`]).
     pub fn wrt_x0(&self, k: usize) -> DMatrix<f64> {
-        self.s[k].columns(0, self.x0_columns()).into_owned()
+        self.s(k).columns(0, self.x0_columns()).into_owned()
     }
     /// `∂x(t_k)/∂p` (`n × n_p`).
     pub fn wrt_params(&self, k: usize) -> DMatrix<f64> {
-        self.s[k].columns(self.x0_columns(), self.n_params).into_owned()
+        self.s(k).columns(self.x0_columns(), self.n_params).into_owned()
     }
     /// `∂x_i(t_k)/∂p_j`.
     pub fn dx_dp(&self, k: usize, i: usize, j: usize) -> f64 {
-        self.s[k][(i, self.x0_columns() + j)]
+        self.s(k)[(i, self.x0_columns() + j)]
     }
     fn x0_columns(&self) -> usize {
         match self.wrt {
-            Wrt::All => self.s.first().map_or(0, |s| s.nrows()),
+            Wrt::All => self.n,
             Wrt::Params => 0,
         }
     }

@@ -11,7 +11,8 @@ use std::marker::PhantomData;
 /// A model `x' = f(t, x, u; p)` whose body is instantiated at `f64` (`F`) and at num-dual's
 /// `DualVec64<M>` with `M = n + n_p` directions (`G`): the first `n` directions carry
 /// `∂/∂x`, the last `n_p` carry `∂/∂p`. `J = ∂f/∂x` and the sensitivity right-hand side
-/// `J·s + ∂f/∂p` ([`crate::sensitivity`]) both come from `G`, exact to rounding.
+/// `J·s + ∂f/∂p` ([`crate::sensitivity`]) both come from `G`, exact to rounding; `Q`
+/// ([`ParamsTangent`]) is an optional copy at `n_p` directions for `∂x/∂p` alone.
 ///
 /// The parameter values live in the model: [`params`](Self::params),
 /// [`set_params`](Self::set_params), [`with_params`](Self::with_params).
@@ -28,16 +29,17 @@ use std::marker::PhantomData;
 /// g.jacobian(0.0, &vector![2.0], &[], &mut j);
 /// assert_eq!((dx[0], j[(0, 0)]), (-6.0, -3.0));
 /// ```
-pub struct ParamModel<D, M, F, G, T = NoTimeDerivative> {
+pub struct ParamModel<D, M, F, G, T = NoTimeDerivative, Q = NoParamsTangent> {
     inputs: usize,
     params: Vec<f64>,
     f: F,
     g: G,
     dt: T,
+    pt: Q,
     _dim: PhantomData<(D, M)>,
 }
 
-impl<D, M, F: Clone, G: Clone, T: Clone> Clone for ParamModel<D, M, F, G, T> {
+impl<D, M, F: Clone, G: Clone, T: Clone, Q: Clone> Clone for ParamModel<D, M, F, G, T, Q> {
     fn clone(&self) -> Self {
         ParamModel {
             inputs: self.inputs,
@@ -45,6 +47,7 @@ impl<D, M, F: Clone, G: Clone, T: Clone> Clone for ParamModel<D, M, F, G, T> {
             f: self.f.clone(),
             g: self.g.clone(),
             dt: self.dt.clone(),
+            pt: self.pt.clone(),
             _dim: PhantomData,
         }
     }
@@ -60,20 +63,35 @@ impl<D, M, F, G> ParamModel<D, M, F, G> {
             f,
             g,
             dt: NoTimeDerivative,
+            pt: NoParamsTangent,
             _dim: PhantomData,
         }
     }
 }
 
-impl<D, M, F, G, T> ParamModel<D, M, F, G, T> {
+impl<D, M, F, G, T, Q> ParamModel<D, M, F, G, T, Q> {
     /// The same model with `∂f/∂t` given by `dt` (`model!` gives [`Autonomous`](crate::system::Autonomous) for `|_, …|`).
-    pub fn with_time_derivative<T2>(self, dt: T2) -> ParamModel<D, M, F, G, T2> {
+    pub fn with_time_derivative<T2>(self, dt: T2) -> ParamModel<D, M, F, G, T2, Q> {
         ParamModel {
             inputs: self.inputs,
             params: self.params,
             f: self.f,
             g: self.g,
             dt,
+            pt: self.pt,
+            _dim: PhantomData,
+        }
+    }
+    /// The same model with a copy of the body at `n_p` directions for the sensitivities to
+    /// the parameters alone ([`ParamsBody`]; `model!` gives it to a fixed-size model).
+    pub fn with_params_tangent<Q2>(self, pt: Q2) -> ParamModel<D, M, F, G, T, Q2> {
+        ParamModel {
+            inputs: self.inputs,
+            params: self.params,
+            f: self.f,
+            g: self.g,
+            dt: self.dt,
+            pt,
             _dim: PhantomData,
         }
     }
@@ -102,7 +120,7 @@ impl<D, M, F, G, T> ParamModel<D, M, F, G, T> {
     }
 }
 
-impl<D, M, F, G, T> System<D> for ParamModel<D, M, F, G, T>
+impl<D, M, F, G, T, Q> System<D> for ParamModel<D, M, F, G, T, Q>
 where
     D: Dim,
     M: Dim,
@@ -136,13 +154,14 @@ where
     }
 }
 
-impl<D, M, F, G, T> crate::DualSystem<D> for ParamModel<D, M, F, G, T>
+impl<D, M, F, G, T, Q> crate::DualSystem<D> for ParamModel<D, M, F, G, T, Q>
 where
     D: Dim,
     M: Dim,
     F: Fn(f64, &OVector<f64, D>, &[f64], &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<M>, D>, &[f64], &[DualVec64<M>]) -> OVector<DualVec64<M>, D>,
     T: TimeDerivative<D>,
+    Q: ParamsTangent<D>,
     DefaultAllocator: Allocator<D> + Allocator<M> + Allocator<U1, D>,
 {
     /// `f` at dual `x` (`n` directions): the body at `M` directions with `x`'s derivative
@@ -183,7 +202,12 @@ where
             ds.fill(f64::NAN);
             return;
         }
-        let md = M::from_usize(n + np);
+        // S = ∂x/∂p alone: the copy of the body at n_p directions, when there is one
+        if m == np && self.pt.params_tangent(t, x, u, &self.params, s, ds) {
+            return;
+        }
+        // a dynamic M takes exactly the m directions used; a fixed one is n + n_p wide
+        let md = M::from_usize(if M::try_to_usize().is_some() { n + np } else { m });
         // x_i + Σ_k s_ik ε_k (k < m), p_j + ε_{m − n_p + j}; directions m.. stay zero
         let xd = x.map_with_location(|i, _, v| {
             DualVec64::new(
@@ -200,6 +224,96 @@ where
         });
         let r = (self.g)(t, &xd, u, &pd.as_slice()[..np]);
         crate::sensitivity::write_eps(&r, n, m, ds);
+    }
+}
+
+/// `J·S + ∂f/∂p` for `S = ∂x/∂p` alone (`n × n_p`, [`Wrt::Params`](crate::sensitivity::Wrt::Params))
+/// from a copy of the body whose duals carry one direction per parameter: `x` seeded with
+/// `S`'s rows, `p_j` with the unit vector `e_j`. [`ParamModel`]'s `G` carries `n + n_p`
+/// directions, of which this case uses `n_p`.
+pub trait ParamsTangent<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Write `J·S + ∂f/∂p` at `(t, x, u; p)` into `ds` (`n × n_p`, column-major, as `s`);
+    /// `false` (and `ds` untouched) when there is no such copy.
+    #[allow(clippy::too_many_arguments)]
+    fn params_tangent(&self, t: f64, x: &OVector<f64, D>, u: &[f64], p: &[f64], s: &[f64], ds: &mut [f64]) -> bool;
+}
+
+/// No copy of the body at `n_p` directions: [`ParamModel`] uses its `G`.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct NoParamsTangent;
+
+impl<D: Dim> ParamsTangent<D> for NoParamsTangent
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn params_tangent(&self, _: f64, _: &OVector<f64, D>, _: &[f64], _: &[f64], _: &[f64], _: &mut [f64]) -> bool {
+        false
+    }
+}
+
+/// The model's body at num-dual's `DualVec64<P>`, `P = n_p` directions
+/// ([`ParamsTangent`]); built by [`model!`](crate::model) for a fixed-size model with a
+/// parameter block.
+///
+/// ```
+/// use reckon::{model, DualSystem};
+/// use nalgebra::vector;
+/// // x' = −k·x: J·s + ∂f/∂k = −k·s − x
+/// let f = model!(|_, x: [S; 1], p: [S; 1] = [2.0]| vector![-(p[0] * x[0])]);
+/// let mut ds = [0.0];
+/// f.tangent(0.0, &vector![3.0], &[], &[0.5], 1, &mut ds);
+/// assert_eq!(ds, [-2.0 * 0.5 - 3.0]);
+/// ```
+pub struct ParamsBody<P, H> {
+    body: H,
+    _dim: PhantomData<P>,
+}
+
+impl<P, H: Clone> Clone for ParamsBody<P, H> {
+    fn clone(&self) -> Self {
+        ParamsBody::new(self.body.clone())
+    }
+}
+
+impl<P, H> ParamsBody<P, H> {
+    /// Wrap the body at `DualVec64<P>`.
+    pub fn new(body: H) -> Self {
+        ParamsBody {
+            body,
+            _dim: PhantomData,
+        }
+    }
+}
+
+impl<D, P, H> ParamsTangent<D> for ParamsBody<P, H>
+where
+    D: Dim,
+    P: Dim,
+    H: Fn(f64, &OVector<DualVec64<P>, D>, &[f64], &[DualVec64<P>]) -> OVector<DualVec64<P>, D>,
+    DefaultAllocator: Allocator<D> + Allocator<P>,
+{
+    #[inline(always)]
+    fn params_tangent(&self, t: f64, x: &OVector<f64, D>, u: &[f64], p: &[f64], s: &[f64], ds: &mut [f64]) -> bool {
+        let (n, np) = (x.len(), p.len());
+        if P::try_to_usize().is_some_and(|w| w != np) {
+            return false;
+        }
+        let pw = P::from_usize(np);
+        let xd = x.map_with_location(|i, _, v| {
+            DualVec64::new(
+                v,
+                Derivative::some(OVector::<f64, P>::from_fn_generic(pw, U1, |k, _| s[i + k * n])),
+            )
+        });
+        let pd = OVector::<DualVec64<P>, P>::from_fn_generic(pw, U1, |j, _| {
+            DualVec64::new(p[j], Derivative::derivative_generic(pw, U1, j))
+        });
+        let r = (self.body)(t, &xd, u, pd.as_slice());
+        crate::sensitivity::write_eps(&r, n, np, ds);
+        true
     }
 }
 

@@ -454,7 +454,9 @@ where
 /// `model!(|t, x: [S; N]| body)` for a fixed-size state `SVector<S, N>`,
 /// `model!(|t, x: [S; Dyn]| body)` for a `DVector<S>`, and `, u: [M]` after the state
 /// for `M` held inputs (`u: &[f64]`). The body is written once and compiled twice,
-/// with `S = f64` and with `S` a num-dual number (three times with `t: S`), so it must be generic in spirit.
+/// with `S = f64` and with `S` a num-dual number (three times with `t: S`, and three with a
+/// fixed-size parameter block: duals of `n + n_p` directions, and of `n_p` for the
+/// sensitivities to the parameters alone, [`ParamsBody`](crate::params::ParamsBody)), so it must be generic in spirit.
 /// Float literals may stand on either side of an operator (`2.0 * x[0]`, see below);
 /// a captured `f64` variable goes on the right (`x[0] * mu`) or is lifted
 /// (`S::from(mu) * x[0]`), and so does a value that does not depend on the state
@@ -696,7 +698,17 @@ macro_rules! model {
                   -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $n + $np }>, { $n }> {
                 $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualSVec64<{ $n + $np }>, $body)
             },
-        ))
+        )
+        .with_params_tangent($crate::params::ParamsBody::<$crate::nalgebra::Const<{ $np }>, _>::new(
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            move |__t: f64,
+                  $x: &$crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $np }>, { $n }>,
+                  $u: &[f64],
+                  $p: &[$crate::num_dual::DualSVec64<{ $np }>]|
+                  -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $np }>, { $n }> {
+                $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualSVec64<{ $np }>, $body)
+            },
+        )))
     }};
     (@pdyn $mode:ident, $m:expr, $t:tt, $x:ident, $s:ident, $u:tt, $p:ident, $np:expr, $pv:tt, $body:expr) => {{
         let __pv: [f64; $np] = $pv;

@@ -653,3 +653,51 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
         assert_eq!(s4.s(k), s.s(j));
     }
 }
+
+/// `DualSystem::tangent` for `S = ∂x/∂p` alone (`m = n_p` columns): a fixed-size model
+/// evaluates its copy of the body at `n_p` directions, a `Dyn` one its dual body at
+/// exactly `m`; both equal the closed form `J·S + ∂f/∂p`, and bit for bit the parameter
+/// columns of the full-width tangent with `S = [0 | S_p]`.
+#[test]
+fn parameter_tangent_at_n_p_directions() {
+    // f = (p₀x₀x₁ + u₀, sin(p₁x₀) − x₁²)
+    let fixed = model!(|_, x: [S; 2], u: [1], p: [S; 2] = [0.7, -1.3]| vector![
+        p[0] * x[0] * x[1] + S::from(u[0]),
+        (p[1] * x[0]).sin() - x[1] * x[1]
+    ]);
+    let dynamic = model!(|_, x: [S; Dyn], u: [1], p: [S; 2] = [0.7, -1.3]| nalgebra::DVector::from_vec(vec![
+        p[0].clone() * x[0].clone() * x[1].clone() + S::from(u[0]),
+        (p[1].clone() * x[0].clone()).sin() - x[1].clone() * x[1].clone()
+    ]));
+    let (x, u): ([f64; 2], [f64; 1]) = ([0.4, -2.1], [0.3]);
+    let (p0, p1): (f64, f64) = (0.7, -1.3);
+    // S_p, 2 × 2 column-major
+    let sp = [0.25, -1.5, 2.0, 0.125];
+    let jac = [[p0 * x[1], p0 * x[0]], [p1 * (p1 * x[0]).cos(), -2.0 * x[1]]];
+    let dfdp = [[x[0] * x[1], 0.0], [0.0, x[0] * (p1 * x[0]).cos()]];
+    let want: Vec<f64> = (0..2)
+        .flat_map(|k| (0..2).map(move |i| jac[i][0] * sp[2 * k] + jac[i][1] * sp[2 * k + 1] + dfdp[i][k]))
+        .collect();
+    // the full width: S = [0 | S_p], 4 columns
+    let mut wide_s = vec![0.0; 4];
+    wide_s.extend_from_slice(&sp);
+    let (mut a, mut b, mut c, mut d) = (vec![0.0; 4], vec![0.0; 8], vec![0.0; 4], vec![0.0; 8]);
+    fixed.tangent(0.0, &vector![x[0], x[1]], &u, &sp, 2, &mut a);
+    fixed.tangent(0.0, &vector![x[0], x[1]], &u, &wide_s, 4, &mut b);
+    let xd = nalgebra::DVector::from_vec(x.to_vec());
+    dynamic.tangent(0.0, &xd, &u, &sp, 2, &mut c);
+    dynamic.tangent(0.0, &xd, &u, &wide_s, 4, &mut d);
+    for e in 0..4 {
+        assert!(
+            (a[e] - want[e]).abs() < 1e-15 * want[e].abs().max(1.0),
+            "{e}: {} vs {}",
+            a[e],
+            want[e]
+        );
+    }
+    assert_eq!(a, b[4..]);
+    assert_eq!(c, d[4..]);
+    assert_eq!(a, c);
+    // the x₀ columns of the wide tangent are J·0 = 0
+    assert_eq!(b[..4], [0.0; 4]);
+}

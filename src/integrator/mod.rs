@@ -335,6 +335,11 @@ where
     pub fn stats(&self) -> Stats {
         self.f.stats
     }
+    /// Accepted steps so far (`stats().accepted` without copying the counters).
+    #[inline]
+    pub(crate) fn accepted(&self) -> u64 {
+        self.f.stats.accepted
+    }
     /// Where DOPRI5's stiffness test fired so far.
     pub fn stiffness(&self) -> Option<Stiffness> {
         self.stiffness

@@ -53,11 +53,11 @@ where
     loop {
         u.clear();
         u.extend_from_slice(it.held_inputs());
-        let accepted = it.stats().accepted;
+        let accepted = it.accepted();
         if it.step()?.is_none() {
             break;
         }
-        if it.stats().accepted > accepted {
+        if it.accepted() > accepted {
             let (t, h, _) = it.last_step();
             let x1 = it.x();
             // the time implicit Euler evaluated f at
@@ -157,11 +157,11 @@ where
         u.clear();
         u.extend_from_slice(it.held_inputs());
         x0.copy_from(it.x());
-        let accepted = it.stats().accepted;
+        let accepted = it.accepted();
         if it.step()?.is_none() {
             break;
         }
-        if it.stats().accepted == accepted {
+        if it.accepted() == accepted {
             // a stop landed on without a step: the same state, a new time
             z.rows_mut(0, n).copy_from_slice(it.x().as_slice());
             out.step(it.t(), &z, at_times.then_some((seg.0, seg.1, &dense[..])));
@@ -188,17 +188,10 @@ where
         // argument (x₁ for the last stage), the same combination of the Kⱼ for
         // S₀ + h Σ aᵢⱼ Kⱼ, then Kᵢ at (t + cᵢh, Yᵢ)
         macro_rules! stage {
-            ($i:literal; $j0:literal $(, $j:literal)*) => {{
-                let o = &mut y.as_mut_slice()[..n];
-                for c in 0..n {
-                    o[c] = xs[c] + h * (A[$i][$j0] * ks[$j0][c] $(+ A[$i][$j] * ks[$j][c])*);
-                }
+            ($i:literal; $($j:literal),+) => {{
+                combine(&mut y.as_mut_slice()[..n], xs, h, [$(A[$i][$j]),+], [$(&ks[$j][..n]),+]);
                 let (done, ahead) = kk.split_at_mut($i);
-                let d: [&[f64]; $i] = std::array::from_fn(|j| &done[j][..nm]);
-                let o = &mut sy[..nm];
-                for e in 0..nm {
-                    o[e] = s0[e] + h * (A[$i][$j0] * d[$j0][e] $(+ A[$i][$j] * d[$j][e])*);
-                }
+                combine(&mut sy[..nm], s0, h, [$(A[$i][$j]),+], [$(&done[$j][..nm]),+]);
                 problem.system.tangent(t + C[$i] * h, &y, &u, &sy, m, &mut ahead[0]);
                 tangents += 1;
             }};
@@ -241,4 +234,18 @@ where
     stats.rhs_evals += tangents;
     let (t, split) = out.finish();
     Ok(split.into_sensitivities(t, sens.wrt, np, stats, "rk45"))
+}
+
+/// `out = base + h·(a₀k₀ + a₁k₁ + …)`, summed left to right as Dopri5's kernel writes a
+/// stage argument (so the same bits for `x`). The callers slice every argument to the
+/// length of `out`, which lets the compiler drop the bounds checks of the unrolled terms.
+#[inline(always)]
+fn combine<const J: usize>(out: &mut [f64], base: &[f64], h: f64, a: [f64; J], k: [&[f64]; J]) {
+    for e in 0..out.len() {
+        let mut acc = a[0] * k[0][e];
+        for j in 1..J {
+            acc += a[j] * k[j][e];
+        }
+        out[e] = base[e] + h * acc;
+    }
 }

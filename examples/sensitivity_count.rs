@@ -1,0 +1,116 @@
+//! One sensitivity contender, `reps` times: run under `valgrind --tool=callgrind` to
+//! count instructions (stable on a shared, noisy machine). The count per solve is
+//! `(count(reps = 2) − count(reps = 1))`, which cancels the setup:
+//!
+//! ```text
+//! cargo build --release --example sensitivity_count
+//! valgrind --tool=callgrind target/release/examples/sensitivity_count vdp params rk45 2
+//! ```
+//!
+//! Problems: `vdp` (Van der Pol with μ = 1.5 as its parameter, `benches/sensitivity.rs`'s)
+//! and `drive` (the differential drive with three geometry parameters over the wheel-speed
+//! log); modes: `plain`, `params` (`Wrt::Params`) and `all` (`∂x/∂x₀` and `∂x/∂p`);
+//! methods: `rk45` (rtol 1e-8, atol 1e-10) and `ie` (implicit Euler, rtol 1e-5, atol 1e-8).
+//!
+//! With mode `time` it times instead (wall clock, best of `reps` interleaved rounds of
+//! 200 solves each of plain, all columns and params only) and prints the two ratios:
+//! `cargo run --release --example sensitivity_count -- vdp time rk45 30`.
+
+use nalgebra::vector;
+use reckon::calibration::lsq::diff_drive;
+use reckon::methods::{Dopri5, ImplicitEuler};
+use reckon::sensitivity::{self, SensitivityOptions, Wrt};
+use reckon::{Options, Problem, model};
+use std::hint::black_box;
+
+#[path = "../tests/common/drives.rs"]
+mod drives;
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    let arg = |i: usize, d: &'static str| a.get(i).map_or(d, |s| s.as_str()).to_string();
+    let (prob, mode, method) = (arg(1, "vdp"), arg(2, "params"), arg(3, "rk45"));
+    let reps: usize = arg(4, "1").parse().expect("reps: a count of solves");
+    let o = if method == "rk45" {
+        Options::default().rtol(1e-8).atol(1e-10)
+    } else {
+        Options::default().rtol(1e-5).atol(1e-8)
+    };
+    let so = match mode.as_str() {
+        "params" => SensitivityOptions::default().wrt(Wrt::Params),
+        _ => SensitivityOptions::default(),
+    };
+    let dd = diff_drive(&[0.0502, 0.0497, 0.405]).unwrap();
+    let drive = Problem::new(&dd, vector![0.0, 0.0, 0.0], (0.0, 60.0)).controls(drives::wheel_speed_log());
+    let vdp = model!(|_, x: [S; 2], p: [S; 1] = [1.5]| vector![x[1], p[0] * (1.0 - x[0] * x[0]) * x[1] - x[0]]);
+    let q = Problem::new(&vdp, vector![2.0, 0.0], (0.0, 10.0));
+    let mut acc = 0u64;
+    let sp = SensitivityOptions::default().wrt(Wrt::Params);
+    let sa = SensitivityOptions::default();
+    macro_rules! time {
+        ($p:expr, $m:expr) => {{
+            let mut best = [f64::INFINITY; 3];
+            for _ in 0..reps {
+                for (c, b) in best.iter_mut().enumerate() {
+                    let start = std::time::Instant::now();
+                    for _ in 0..200 {
+                        acc += match c {
+                            0 => $p.solve($m, black_box(&o)).unwrap().stats.accepted,
+                            1 => sensitivity::solve(&$p, $m, black_box(&o), &sa).unwrap().stats.accepted,
+                            _ => sensitivity::solve(&$p, $m, black_box(&o), &sp).unwrap().stats.accepted,
+                        };
+                    }
+                    *b = b.min(start.elapsed().as_secs_f64() / 200.0);
+                }
+            }
+            println!(
+                "{prob} {method}: plain {:.2} µs, all columns {:.2}×, params only {:.2}× (best of {reps})",
+                best[0] * 1e6,
+                best[1] / best[0],
+                best[2] / best[0]
+            );
+        }};
+    }
+    if mode == "time" {
+        match (prob.as_str(), method.as_str()) {
+            ("drive", "rk45") => time!(drive, Dopri5::default()),
+            ("drive", _) => time!(drive, ImplicitEuler::default()),
+            (_, "rk45") => time!(q, Dopri5::default()),
+            _ => time!(q, ImplicitEuler::default()),
+        }
+        black_box(acc);
+        return;
+    }
+    macro_rules! run {
+        ($p:expr) => {
+            for _ in 0..reps {
+                acc += match (mode.as_str(), method.as_str()) {
+                    ("plain", "rk45") => $p.solve(Dopri5::default(), black_box(&o)).unwrap().stats.accepted,
+                    ("plain", _) => {
+                        $p.solve(ImplicitEuler::default(), black_box(&o))
+                            .unwrap()
+                            .stats
+                            .accepted
+                    }
+                    (_, "rk45") => {
+                        sensitivity::solve(&$p, Dopri5::default(), black_box(&o), &so)
+                            .unwrap()
+                            .stats
+                            .accepted
+                    }
+                    _ => {
+                        sensitivity::solve(&$p, ImplicitEuler::default(), black_box(&o), &so)
+                            .unwrap()
+                            .stats
+                            .accepted
+                    }
+                };
+            }
+        };
+    }
+    match prob.as_str() {
+        "drive" => run!(drive),
+        _ => run!(q),
+    }
+    println!("{acc} accepted steps");
+}

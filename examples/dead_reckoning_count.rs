@@ -11,6 +11,10 @@
 //! Cases: `unicycle` and `bicycle` (`Exact`), `euler` (explicit Euler on the unicycle at
 //! the log's step); contenders: `bare` (the loop of `benches/dead_reckoning.rs`) and
 //! `solve` (`Problem::solve`, every state stored).
+//!
+//! Contender `time` times instead: bare loop and `solve` alternately, `reps` rounds, and
+//! prints the best of each and their ratio (the speed of `solve` as a fraction of the
+//! bare loop's): `cargo run --release --example dead_reckoning_count -- euler time 1000000 15`.
 
 use nalgebra::{Vector3, vector};
 use reckon::methods::{Exact, ExplicitEuler};
@@ -54,7 +58,7 @@ fn main() {
     let model = unicycle::model();
     let uni = Problem::new(&model, x0, span).controls(controls.clone());
     let bi = Problem::new(bicycle::model(0.5), x0, span).controls(controls);
-    let run = || match (case, who) {
+    let run_as = |who: &str| match (case, who) {
         ("unicycle", "bare") => bare(unicycle::flow, &t, &u),
         ("bicycle", "bare") => bare(bicycle::flow(0.5), &t, &u),
         ("euler", "bare") => bare(
@@ -86,9 +90,27 @@ fn main() {
         }
         _ => panic!("usage: dead_reckoning_count unicycle|bicycle|euler bare|solve [n]"),
     };
+    if who == "time" {
+        let mut best = [f64::INFINITY; 2];
+        for _ in 0..reps {
+            for (c, b) in best.iter_mut().enumerate() {
+                let start = std::time::Instant::now();
+                let x = run_as(if c == 0 { "bare" } else { "solve" });
+                *b = b.min(start.elapsed().as_secs_f64());
+                black_box(x);
+            }
+        }
+        println!(
+            "{case} {n}: bare {:.2} ms, solve {:.2} ms, ratio {:.3} (best of {reps})",
+            best[0] * 1e3,
+            best[1] * 1e3,
+            best[0] / best[1]
+        );
+        return;
+    }
     let mut x = x0;
     for _ in 0..reps {
-        x = run();
+        x = run_as(who);
     }
     println!("{case} {who} {n}: x = {x:?}");
 }

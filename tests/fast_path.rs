@@ -109,6 +109,41 @@ fn fixed_step_euler_fast_path_equals_the_general_path() {
     }
 }
 
+/// Regular logs: at the step's own rate (every grid point is a control time, the fast
+/// path's first test), at three times it (two grid steps inside each interval), at half
+/// of it (a stop between grid points), and at 0.1 with a step of 0.1/3 (grid points within
+/// rounding of the control times, not equal to them): bit for bit the general path's.
+#[test]
+fn regular_logs_on_and_off_the_step_grid_agree_with_the_general_path() {
+    let sys = unicycle::model();
+    for (dt, h, n) in [
+        (0.01, 0.01, 4000),
+        (0.03, 0.01, 2000),
+        (0.005, 0.01, 4000),
+        (0.1, 0.1 / 3.0, 1000),
+    ] {
+        let times: Vec<f64> = (0..n).map(|k| k as f64 * dt).collect();
+        let values = (0..n)
+            .map(|k| vec![1.0 + 0.5 * (k as f64 * 1e-2).sin(), 0.8 * (k as f64 * 7e-3).cos()])
+            .collect();
+        let c = Controls::new(times, values).unwrap();
+        let t_end = n as f64 * dt;
+        let p = Problem::new(&sys, vector![0.1, -0.2, 0.3], (0.0, t_end)).controls(c);
+        let (f, g, s) = both(&p, ExplicitEuler, &Options::default().fixed(h));
+        same(&f, &g);
+        assert_eq!(s.len(), f.t.len());
+        assert!(s.iter().zip(&f.x).all(|(a, b)| a.1 == *b));
+        // steps: one per grid interval, plus one per control time strictly between grid
+        // points (the log at half the step puts every other one there)
+        let expected = match (dt, h) {
+            (0.005, _) => n,
+            (0.1, _) => 3 * n,
+            _ => (t_end / h).round() as usize,
+        };
+        assert_eq!(f.stats.accepted as usize, expected, "log every {dt}, step {h}");
+    }
+}
+
 #[test]
 fn backwards_and_from_a_late_start_the_paths_agree() {
     let c = log(100.0);

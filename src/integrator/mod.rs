@@ -799,13 +799,22 @@ pub(super) fn grid_point(k: u64, signed_h: f64) -> f64 {
     (k + 1) as i64 as f64 * signed_h
 }
 
-/// Whether `x` holds a NaN or ±∞: `Σ v·0` is NaN exactly then (`v·0 = ±0` for a finite
-/// `v`), without a branch per component; the sum starts from −0, which `−0 + a = a`
-/// lets the compiler drop.
+/// Whether `x` holds a NaN or ±∞. The sum `s = Σ v` is non-finite (`s − s` is NaN)
+/// whenever some `v` is, and for finite `v` only when it overflows: that rare case is
+/// settled component by component, out of line. The sum starts from −0, which
+/// `−0 + a = a` lets the compiler drop (n − 1 additions, a subtraction and a compare).
 #[inline(always)]
 pub(super) fn has_non_finite<D: Dim>(x: &OVector<f64, D>) -> bool
 where
     DefaultAllocator: Allocator<D>,
 {
-    x.iter().fold(-0.0, |a, v| a + v * 0.0).is_nan()
+    let s = x.iter().fold(-0.0, |a, v| a + v);
+    (s - s).is_nan() && any_non_finite(x.as_slice())
+}
+
+/// Whether some `v` is NaN or ±∞ (the exact test behind [`has_non_finite`]).
+#[cold]
+#[inline(never)]
+fn any_non_finite(x: &[f64]) -> bool {
+    x.iter().any(|v| !v.is_finite())
 }

@@ -174,7 +174,8 @@ where
     /// step of its own (a second expansion of `step_to!`), so the step to the stop has
     /// its target fixed (no selects), and the grid test starts with `grid == stop_tau`
     /// (a log at the step's rate); with the cheaper finiteness tests: Euler 289 → 262,
-    /// unicycle 318 → 310, bicycle 395 → 388.
+    /// unicycle 318 → 310, bicycle 395 → 388; the row index written back on exit only:
+    /// 258, 304, 382.
     #[inline(never)]
     fn run_lean_fixed_with<const ONE_PER_STOP: bool, const ROWS: bool>(
         &mut self,
@@ -197,6 +198,9 @@ where
         let (mut stop_idx, mut grid_k) = (self.stop_idx, self.grid_k);
         let mut accepted = 0u64;
         let n_stops = self.stops.len();
+        // (a log's row index is written back on exit only: every stop passed since
+        // `entry` opened interval `lo + stop_idx − 1`)
+        let entry = self.stop_idx;
         macro_rules! sync {
             () => {
                 self.t = t;
@@ -205,6 +209,9 @@ where
                 self.stop_idx = stop_idx;
                 self.grid_k = grid_k;
                 self.f.stats.accepted += std::mem::take(&mut accepted);
+                if ROWS && stop_idx > entry {
+                    self.segment = Some(lo + stop_idx - 1);
+                }
             };
         }
         let mut stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);
@@ -277,8 +284,7 @@ where
                 }
                 // `enter_segment` with the time in a register
                 if ROWS {
-                    // a new row at every stop
-                    self.segment = Some(lo + stop_idx - 1);
+                    // a new row at every stop (`segment` is written back by `sync!`)
                     self.f
                         .hold_row(rows.get(stop_idx - 1).map_or(&[], |r| r.as_slice()));
                 } else if let Some(c) = controls

@@ -176,6 +176,8 @@ where
     /// (a log at the step's rate); with the cheaper finiteness tests: Euler 289 → 262,
     /// unicycle 318 → 310, bicycle 395 → 388; the row index written back on exit only:
     /// 258, 304, 382.
+    // (`!(a >= b)` on purpose: a NaN takes the grid branch, as in `next_h`)
+    #[allow(clippy::neg_cmp_op_on_partial_ord)]
     #[inline(never)]
     fn run_lean_fixed_with<const ONE_PER_STOP: bool, const ROWS: bool>(
         &mut self,

@@ -809,7 +809,10 @@ where
     DefaultAllocator: Allocator<D>,
 {
     let s = x.iter().fold(-0.0, |a, v| a + v);
-    (s - s).is_nan() && any_non_finite(x.as_slice())
+    // (`s − s` on purpose: one subtraction, NaN exactly for a non-finite `s`)
+    #[allow(clippy::eq_op)]
+    let bad = (s - s).is_nan();
+    bad && any_non_finite(x.as_slice())
 }
 
 /// Whether some `v` is NaN or ±∞ (the exact test behind [`has_non_finite`]).

@@ -58,6 +58,30 @@ fn state_overflow_is_non_finite_state() {
     );
 }
 
+/// Components near `f64::MAX` whose sum overflows are still finite: no error on any path
+/// (the drivers test a new state by its sum first, and each component only when the sum
+/// is not finite), and the state comes out unchanged for `x' = 0`.
+#[test]
+fn finite_components_whose_sum_overflows_are_not_an_error() {
+    let f = model!(|_t, x: [S; 3]| vector![x[0] * 0.0, x[1] * 0.0, x[2] * 0.0]);
+    let x0 = vector![1.5e308, 1.5e308, -1.0];
+    let p = Problem::new(&f, x0, (0.0, 2.0));
+    for (name, sol) in [
+        (
+            "euler, lean fixed",
+            p.solve(ExplicitEuler, &Options::default().fixed(0.5)),
+        ),
+        ("rk45, lean adaptive", p.solve(Dopri5::default(), &Options::default())),
+        (
+            "rk45, dense (general path)",
+            p.solve(Dopri5::default(), &Options::default().dense(true)),
+        ),
+    ] {
+        let sol = sol.unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(*sol.last().1, x0, "{name}");
+    }
+}
+
 #[test]
 fn infinite_jacobian_is_non_finite_jacobian() {
     // f = −√x has f(0) = 0 but ∂f/∂x = −1/(2√x) = −∞ at 0

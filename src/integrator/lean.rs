@@ -175,7 +175,7 @@ where
     /// its target fixed (no selects), and the grid test starts with `grid == stop_tau`
     /// (a log at the step's rate); with the cheaper finiteness tests: Euler 289 → 262,
     /// unicycle 318 → 310, bicycle 395 → 388; the row index written back on exit only:
-    /// 258, 304, 382.
+    /// 258, 302, 379.
     // (`!(a >= b)` on purpose: a NaN takes the grid branch, as in `next_h`)
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     #[inline(never)]
@@ -211,8 +211,9 @@ where
                 self.stop_idx = stop_idx;
                 self.grid_k = grid_k;
                 self.f.stats.accepted += std::mem::take(&mut accepted);
-                if ROWS && stop_idx > entry {
-                    self.segment = Some(lo + stop_idx - 1);
+                // (not for the arrival at t_end, as `arrive`, which stops there)
+                if ROWS && stop_idx.min(n_stops) > entry {
+                    self.segment = Some(lo + stop_idx.min(n_stops) - 1);
                 }
             };
         }

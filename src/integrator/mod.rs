@@ -511,7 +511,7 @@ where
                 Outcome::Done { err } => err,
             };
             // explicit kernels evaluate f unchecked: every result is checked here, once
-            // (v·0 is NaN exactly when v is ±∞ or NaN; the sum of zeros cannot overflow)
+            // (by its sum, and component by component only when the sum is not finite)
             if err.is_nan() || has_non_finite(&self.x_new) {
                 return Err(self.non_finite(h));
             }

@@ -36,10 +36,6 @@ fn main() {
     } else {
         Options::default().rtol(1e-5).atol(1e-8)
     };
-    let so = match mode.as_str() {
-        "params" => SensitivityOptions::default().wrt(Wrt::Params),
-        _ => SensitivityOptions::default(),
-    };
     let dd = diff_drive(&[0.0502, 0.0497, 0.405]).unwrap();
     let drive = Problem::new(&dd, vector![0.0, 0.0, 0.0], (0.0, 60.0)).controls(drives::wheel_speed_log());
     let vdp = model!(|_, x: [S; 2], p: [S; 1] = [1.5]| vector![x[1], p[0] * (1.0 - x[0] * x[0]) * x[1] - x[0]]);
@@ -47,6 +43,7 @@ fn main() {
     let mut acc = 0u64;
     let sp = SensitivityOptions::default().wrt(Wrt::Params);
     let sa = SensitivityOptions::default();
+    let so = if mode == "params" { &sp } else { &sa };
     macro_rules! time {
         ($p:expr, $m:expr) => {{
             let mut best = [f64::INFINITY; 3];
@@ -93,13 +90,13 @@ fn main() {
                             .accepted
                     }
                     (_, "rk45") => {
-                        sensitivity::solve(&$p, Dopri5::default(), black_box(&o), &so)
+                        sensitivity::solve(&$p, Dopri5::default(), black_box(&o), so)
                             .unwrap()
                             .stats
                             .accepted
                     }
                     _ => {
-                        sensitivity::solve(&$p, ImplicitEuler::default(), black_box(&o), &so)
+                        sensitivity::solve(&$p, ImplicitEuler::default(), black_box(&o), so)
                             .unwrap()
                             .stats
                             .accepted

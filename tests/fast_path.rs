@@ -4,9 +4,10 @@
 //! every stored step bit for bit, breakpoints landed exactly, inputs switched on time.
 
 use nalgebra::{Vector3, vector};
+use reckon::error::Quantity;
 use reckon::methods::{Exact, ExplicitEuler, Method};
 use reckon::models::unicycle;
-use reckon::{Controls, Error, Event, Options, Problem, Save, Solution};
+use reckon::{Controls, Error, Event, Options, Problem, Save, Solution, model};
 
 const N: usize = 10_000;
 
@@ -281,6 +282,99 @@ proptest::proptest! {
                     (t, k) = (next, k + 1);
                 }
                 proptest::prop_assert_eq!(i + 1, fast.t.len());
+            }
+        }
+    }
+}
+
+/// The fast path keeps the state alternately in two buffers: every way out of it (the
+/// end of the span, a landing without a step, a non-finite step, the step limit) after
+/// an even and after an odd number of steps, on a log (stops = the log's times) and with
+/// a breakpoint (stops merged): bit for bit the general path's states and errors.
+#[test]
+fn every_exit_after_an_odd_and_an_even_number_of_steps_is_the_general_paths() {
+    let sys = unicycle::model();
+    // from t0 = −50, the times 0, 1e−16 and 2e−16 are one t − t0 (50): the last two
+    // are landed on without a step
+    for skip in [0, 1] {
+        let mut times: Vec<f64> = (0..50).filter(|&k| k != 1 + skip).map(|k| k as f64 - 50.0).collect();
+        times.extend([0.0, 1e-16, 2e-16]);
+        times.extend((1..=7).map(|k| k as f64));
+        let n = times.len();
+        let values: Vec<Vec<f64>> = (0..n)
+            .map(|k| vec![1.0 + 0.1 * k as f64, 0.3 - 0.01 * k as f64])
+            .collect();
+        let c = Controls::new(times.clone(), values).unwrap();
+        for t_end in [7.5, 8.0] {
+            let p = Problem::new(&sys, vector![0.1, -0.2, 0.3], (-50.0, t_end)).controls(c.clone());
+            for opts in [Options::default(), Options::default().breakpoints([-20.5])] {
+                let (f, g, s) = both(&p, Exact::new(unicycle::flow), &opts);
+                same(&f, &g);
+                assert_eq!(s.len(), f.t.len());
+                // one step per interval, none for the two landings
+                let stops = n - 1 + opts.breakpoints.len();
+                assert_eq!(f.stats.accepted as usize, stops + 1 - 2, "skip {skip}, t_end {t_end}");
+                for h in [0.5, 1.0] {
+                    let o = opts.clone().fixed(h);
+                    let (f, g, s) = both(&p, ExplicitEuler, &o);
+                    same(&f, &g);
+                    assert!(s.iter().zip(&f.x).all(|(a, b)| a.1 == *b));
+                }
+            }
+            // a flow that fails in interval `bad` (odd and even step counts before it)
+            for bad in [10, 11, 52, 53] {
+                let at = times[bad];
+                let flow = move |t: f64, x: &Vector3<f64>, u: &[f64], h: f64| {
+                    let y = unicycle::flow(t, x, u, h);
+                    if t == at { vector![y[0], f64::INFINITY, y[2]] } else { y }
+                };
+                let fast = p.solve(Exact::new(flow), &Options::default()).unwrap_err();
+                let general = Problem::new(&sys, vector![0.1, -0.2, 0.3], (-50.0, t_end))
+                    .controls(c.clone())
+                    .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9))
+                    .solve(Exact::new(flow), &Options::default())
+                    .unwrap_err();
+                assert_eq!(fast, general);
+                // (the diagnosis reads the failed step's result: component 1)
+                assert!(
+                    matches!(fast, Error::NonFinite { t, quantity: Quantity::State, component: 1 } if t == times[bad + 1]),
+                    "{fast}"
+                );
+                // explicit Euler on a model whose derivative overflows with that row's input
+                let v_bad = 1.0 + 0.1 * bad as f64;
+                let g = model!(|_t, x: [S; 3], u: [2]| vector![
+                    x[2].cos() * u[0] * if u[0] == v_bad { 1e308 } else { 1.0 } * 1e10,
+                    x[2].sin() * u[0],
+                    x[0] * 0.0 + u[1]
+                ]);
+                let q = Problem::new(&g, vector![0.1, -0.2, 0.3], (-50.0, t_end)).controls(c.clone());
+                let o = Options::default().fixed(0.5);
+                let fast = q.solve(ExplicitEuler, &o).unwrap_err();
+                let general = Problem::new(&g, vector![0.1, -0.2, 0.3], (-50.0, t_end))
+                    .controls(c.clone())
+                    .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9))
+                    .solve(ExplicitEuler, &o)
+                    .unwrap_err();
+                assert_eq!(fast, general);
+                assert!(matches!(fast, Error::NonFinite { component: 0, .. }), "{fast}");
+            }
+            // the step limit, reached in an odd and in an even step of one interval
+            for limit in [3, 4] {
+                let o = Options::default().fixed(1e-3).max_steps(limit);
+                let fast = p.solve(ExplicitEuler, &o).unwrap_err();
+                let mut it = p.integrator(ExplicitEuler, &o).unwrap();
+                let general = loop {
+                    match it.step() {
+                        Ok(Some(_)) => {}
+                        Ok(None) => panic!("no error"),
+                        Err(e) => break e,
+                    }
+                };
+                assert_eq!(fast, general);
+                assert!(
+                    matches!(fast, Error::MaxSteps { steps, .. } if steps == limit),
+                    "{fast}"
+                );
             }
         }
     }

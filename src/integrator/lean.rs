@@ -145,6 +145,20 @@ where
             && self.sub_h.is_none()
             && self.t_end.is_finite()
             && self.method.never_retries()
+            && self.times_bounded()
+    }
+
+    /// Whether `t0`, `t`, `t_end` and every stop are below 2¹⁰²¹ in magnitude (the stops
+    /// are sorted: the first and the last), so that every `stop − t0`, grid point and
+    /// step `h` between them is finite: the lean loop then tests `h` for zero alone
+    /// (times near `f64::MAX` take the general path, which reports the overflow).
+    fn times_bounded(&self) -> bool {
+        const BOUND: f64 = f64::MAX / 8.0;
+        [self.problem.t0, self.t, self.t_end]
+            .into_iter()
+            .chain(self.stops.first().copied())
+            .chain(self.stops.last().copied())
+            .all(|v| v.abs() < BOUND)
     }
 
     /// Step to `t_end` through every breakpoint and control time, pushing every step:
@@ -175,7 +189,8 @@ where
     /// its target fixed (no selects), and the grid test starts with `grid == stop_tau`
     /// (a log at the step's rate); with the cheaper finiteness tests: Euler 289 → 262,
     /// unicycle 318 → 310, bicycle 395 → 388; the row index written back on exit only:
-    /// 258, 302, 379.
+    /// 258, 302, 379; `h` known finite (`times_bounded`), a log's stops read from the
+    /// log, and the state alternating between two buffers (no swap): 252, 296, 373.
     // (`!(a >= b)` on purpose: a NaN takes the grid branch, as in `next_h`)
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     #[inline(never)]
@@ -187,19 +202,40 @@ where
         let dir = if ROWS { 1.0 } else { self.dir };
         let (fixed_h, max_steps) = (self.fixed_h, self.max_steps);
         let signed_h = dir * fixed_h;
-        let controls = self.problem.controls.as_ref();
+        let t_end = self.t_end;
+        let problem = self.problem;
+        let controls = problem.controls.as_ref();
         // stop `i` opens interval `lo + i` (`times[lo + i] = t < times[lo + i + 1]`: what
         // the search finds)
         let lo = self.stops_from.unwrap_or(0);
-        let rows = if ROWS {
-            controls.map_or(&[][..], |c| c.rows().get(lo..).unwrap_or_default())
-        } else {
-            &[]
+        // a log's stops are its own times `lo..lo + n_stops` (borrowed for 'p, not through
+        // `self`), with its rows cut to the same length: the row of a stop passed is in
+        // bounds once `stop_idx ≤ n_stops` is known
+        let (log_stops, rows) = match controls {
+            Some(c) if ROWS => {
+                let n = self.stops.len();
+                let times = c.times().get(lo..lo + n).unwrap_or_default();
+                let rows = c.rows().get(lo..).unwrap_or_default();
+                let n = times.len().min(rows.len());
+                (&times[..n], &rows[..n])
+            }
+            _ => (&[][..], &[][..]),
         };
+        let n_stops = if ROWS { log_stops.len() } else { self.stops.len() };
+        debug_assert!(!ROWS || log_stops == &self.stops[..]);
+        // the stop after `i` passed (`t_end` after the last)
+        macro_rules! stop_at {
+            ($i:expr) => {
+                if ROWS {
+                    log_stops.get($i).copied().unwrap_or(t_end)
+                } else {
+                    self.stops.get($i).copied().unwrap_or(t_end)
+                }
+            };
+        }
         let (mut t, mut tau, mut attempts) = (self.t, self.tau, self.attempts);
         let (mut stop_idx, mut grid_k) = (self.stop_idx, self.grid_k);
         let mut accepted = 0u64;
-        let n_stops = self.stops.len();
         // (a log's row index is written back on exit only: every stop passed since
         // `entry` opened interval `lo + stop_idx − 1`)
         let entry = self.stop_idx;
@@ -217,50 +253,63 @@ where
                 }
             };
         }
-        let mut stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);
+        let mut stop = stop_at!(stop_idx);
         let mut stop_tau = stop - t0;
-        // one step to `target` (`target_tau = target − t0`): the checks of `step`, the
-        // method's step, the finiteness of the result, then `x` and the time advanced
+        // The state alternates between `self.x` and `self.x_new` (no swap per step): the
+        // loop body is written twice, the even half stepping `x → x_new` and the odd half
+        // `x_new → x`, each taking exactly one step. `$odd` says where the state is; every
+        // way out first puts it back in `self.x` (`home!`), as the general path has it.
+        macro_rules! home {
+            ($odd:expr) => {
+                if $odd {
+                    std::mem::swap(&mut self.x, &mut self.x_new);
+                }
+            };
+        }
+        // one step to `target` (`target_tau = target − t0`) from `self.$src` into
+        // `self.$dst`: the checks of `step`, the method's step, the finiteness of the
+        // result, then the time advanced
         macro_rules! step_to {
-            ($target:expr, $target_tau:expr) => {{
+            ($target:expr, $target_tau:expr, $src:ident, $dst:ident, $odd:expr, $steps:lifetime) => {{
                 let (target, target_tau) = ($target, $target_tau);
                 let h = target_tau - tau;
-                // 0 < |h| < ∞ in one unsigned compare of |h|'s bits (0 wraps to the top)
-                if (h.to_bits() & !(1 << 63)).wrapping_sub(1) >= f64::MAX.to_bits() {
-                    if h == 0.0 {
-                        // two stops closer than t − t0 resolves: the general path lands
-                        // without a step
-                        sync!();
-                        self.land_without_step(stop);
-                        keep(self.t, &self.x);
-                        if self.done {
-                            return Ok(());
-                        }
-                        (t, attempts, stop_idx) = (self.t, self.attempts, self.stop_idx);
-                        stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);
-                        stop_tau = stop - t0;
-                        continue;
-                    }
+                // (finite: `times_bounded`)
+                debug_assert!(h.is_finite());
+                if h == 0.0 {
+                    // two stops closer than t − t0 resolves: the general path lands
+                    // without a step (then the loop starts again at the even half)
+                    home!($odd);
                     sync!();
-                    return Err(self.underflow(h, 0));
+                    self.land_without_step(stop);
+                    keep(self.t, &self.x);
+                    if self.done {
+                        return Ok(());
+                    }
+                    (t, attempts, stop_idx) = (self.t, self.attempts, self.stop_idx);
+                    stop = stop_at!(stop_idx);
+                    stop_tau = stop - t0;
+                    continue $steps;
                 }
                 attempts += 1;
                 let outcome = self
                     .method
-                    .step(&mut self.f, t, &self.x, h, &mut self.x_new, &self.w, false);
+                    .step(&mut self.f, t, &self.$src, h, &mut self.$dst, &self.w, false);
                 let err = match outcome {
                     Ok(Outcome::Done { err }) => err,
                     // never_retries: a retry is a method's own error
                     Ok(Outcome::Retry(why)) => {
+                        home!($odd);
                         sync!();
                         return Err(self.failure_error(why, h));
                     }
                     Err(e) => {
+                        home!($odd);
                         sync!();
                         return Err(e);
                     }
                 };
-                if err.is_nan() || super::has_non_finite(&self.x_new) {
+                if err.is_nan() || super::has_non_finite(&self.$dst) {
+                    home!($odd);
                     sync!();
                     return Err(self.non_finite(h));
                 }
@@ -269,17 +318,19 @@ where
                 if let Some(to) = self.method.switched() {
                     self.switches.push(super::Switch { t: target, to });
                 }
-                std::mem::swap(&mut self.x, &mut self.x_new);
                 t = target;
                 tau = target_tau;
             }};
         }
-        // `arrive` at the stop: the next stop, the inputs of the interval it opens
+        // `arrive` at the stop (the state in `self.$dst`, `$odd` before the step that
+        // arrived): the next stop, the inputs of the interval it opens
         macro_rules! arrive {
-            () => {{
+            ($dst:ident, $odd:expr) => {{
                 attempts = 0;
                 stop_idx += 1;
                 if stop_idx > n_stops {
+                    // (after the step the state is home when it was not before)
+                    home!(!$odd);
                     sync!();
                     self.done = true;
                     keep(t, &self.x);
@@ -298,45 +349,58 @@ where
                     self.f.hold_row(c.values(k).unwrap_or_default());
                 }
                 self.method.reset();
-                stop = self.stops.get(stop_idx).copied().unwrap_or(self.t_end);
+                stop = stop_at!(stop_idx);
                 stop_tau = stop - t0;
             }};
         }
-        loop {
-            if attempts >= max_steps {
-                sync!();
-                return Err(Error::MaxSteps { t, steps: attempts });
-            }
-            // `next_h` for a fixed step: the next grid point, or the stop when it is no
-            // farther (always the stop for an exact flow's infinite step). A grid point
-            // before the stop takes a step of its own, kept apart from the step to the
-            // stop so that the usual one (a log at the step's rate or slower) has its
-            // target fixed: no selects, and a grid test decided before the call.
-            let mut on_grid = ONE_PER_STOP;
-            if !ONE_PER_STOP {
-                let grid = super::grid_point(grid_k, signed_h);
-                // (the grid point on the stop first: one compare for a log at the step)
-                on_grid = stop_tau == grid;
-                if !on_grid {
-                    if !(dir * (grid - stop_tau) >= -1e-10 * fixed_h) {
-                        let target = t0 + grid;
-                        step_to!(target, grid);
-                        grid_k += 1;
-                        if target == stop {
-                            arrive!();
-                        }
-                        keep(t, &self.x);
-                        continue;
-                    }
-                    on_grid = (stop_tau - grid).abs() <= 1e-10 * fixed_h;
+        // one step from `self.$src` into `self.$dst` (`break $half` once it is taken,
+        // `continue $steps` when a landing without a step brings the state home)
+        macro_rules! half {
+            ($src:ident, $dst:ident, $odd:expr, $half:lifetime, $steps:lifetime) => {{
+                if attempts >= max_steps {
+                    home!($odd);
+                    sync!();
+                    return Err(Error::MaxSteps { t, steps: attempts });
                 }
+                // `next_h` for a fixed step: the next grid point, or the stop when it is
+                // no farther (always the stop for an exact flow's infinite step). A grid
+                // point before the stop takes a step of its own, kept apart from the step
+                // to the stop so that the usual one (a log at the step's rate or slower)
+                // has its target fixed: no selects, and a grid test decided before the call.
+                let mut on_grid = ONE_PER_STOP;
+                if !ONE_PER_STOP {
+                    let grid = super::grid_point(grid_k, signed_h);
+                    // (the grid point on the stop first: one compare for a log at the step)
+                    on_grid = stop_tau == grid;
+                    if !on_grid {
+                        if !(dir * (grid - stop_tau) >= -1e-10 * fixed_h) {
+                            let target = t0 + grid;
+                            step_to!(target, grid, $src, $dst, $odd, $steps);
+                            grid_k += 1;
+                            if target == stop {
+                                arrive!($dst, $odd);
+                            }
+                            keep(t, &self.$dst);
+                            break $half;
+                        }
+                        on_grid = (stop_tau - grid).abs() <= 1e-10 * fixed_h;
+                    }
+                }
+                step_to!(stop, stop_tau, $src, $dst, $odd, $steps);
+                if on_grid {
+                    grid_k += 1;
+                }
+                arrive!($dst, $odd);
+                keep(t, &self.$dst);
+            }};
+        }
+        'steps: loop {
+            'even: {
+                half!(x, x_new, false, 'even, 'steps);
             }
-            step_to!(stop, stop_tau);
-            if on_grid {
-                grid_k += 1;
+            'odd: {
+                half!(x_new, x, true, 'odd, 'steps);
             }
-            arrive!();
-            keep(t, &self.x);
         }
     }
 }

@@ -132,6 +132,39 @@ fn singular_iteration_matrix_at_fixed_step() {
     assert!(ok.is_ok());
 }
 
+/// A span across most of the f64 range: the step from 0 to 10³⁰⁸ (`t − t0` = 2·10³⁰⁸)
+/// and explicit Euler's grid point 18·10³⁰⁷ overflow to +∞, reported as a step-size
+/// failure with that `h` (the fast path leaves times this large to the general path:
+/// the same error with an event), never a NaN state.
+#[test]
+fn a_step_that_overflows_is_a_typed_error() {
+    let c = Controls::new(vec![-1e308, 0.0, 1e308], vec![vec![0.0, 0.0]; 3]).unwrap();
+    let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (-1e308, 1.5e308)).controls(c.clone());
+    let general = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (-1e308, 1.5e308))
+        .controls(c)
+        .event(Event::new(|_t, x: &nalgebra::Vector3<f64>| x[0] + 1e9));
+    let euler = Options::default().fixed(1e307);
+    for (e, g, t_fail) in [
+        (
+            p.solve(Exact::new(unicycle::flow), &Options::default()),
+            general.solve(Exact::new(unicycle::flow), &Options::default()),
+            0.0,
+        ),
+        (
+            p.solve(ExplicitEuler, &euler),
+            general.solve(ExplicitEuler, &euler),
+            -1e308 + 1.7e308,
+        ),
+    ] {
+        let (e, g) = (e.unwrap_err(), g.unwrap_err());
+        assert_eq!(e, g);
+        assert!(
+            matches!(e, Error::StepSizeUnderflow { t, h } if h == f64::INFINITY && t == t_fail),
+            "{e:?}"
+        );
+    }
+}
+
 #[test]
 fn step_size_underflow_at_blow_up() {
     let f = model!(|_t, x: [S; 1]| vector![x[0] * x[0]]);

@@ -379,3 +379,54 @@ fn every_exit_after_an_odd_and_an_even_number_of_steps_is_the_general_paths() {
         }
     }
 }
+
+/// `solve` on an integrator already stepped by hand (the fast path then starts inside an
+/// interval, with steps counted against the limit) against the same with an event that
+/// never fires: the same steps after, or the same `MaxSteps` error, at entry and after.
+#[test]
+fn solve_after_steps_by_hand_is_the_general_paths() {
+    let c = log(0.0);
+    // 100 intervals of 0.010–0.013, 100–130 steps of 1e-4 each
+    let t_end = c.times()[99] + 0.01;
+    let sys = unicycle::model();
+    let x0 = vector![0.0, 0.0, 0.0];
+    let fast_p = Problem::new(&sys, x0, (0.0, t_end)).controls(c.clone());
+    let general_p = Problem::new(&sys, x0, (0.0, t_end))
+        .controls(c.clone())
+        .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9));
+    // every time, stepped by hand
+    let all: Vec<f64> = {
+        let mut it = fast_p
+            .integrator(ExplicitEuler, &Options::default().fixed(1e-4))
+            .unwrap();
+        std::iter::once(0.0)
+            .chain(std::iter::from_fn(|| it.step().unwrap()))
+            .collect()
+    };
+    for (taken, limit) in [(0, 100_000), (7, 100_000), (250, 100_000), (29, 30), (30, 30), (3, 30)] {
+        let o = Options::default().fixed(1e-4).max_steps(limit);
+        let run = |p: &Problem<'_, Sys, _>| {
+            let mut it = p.integrator(ExplicitEuler, &o).unwrap();
+            for _ in 0..taken {
+                it.step().unwrap().unwrap();
+            }
+            it.solve()
+        };
+        match (run(&fast_p), run(&general_p)) {
+            (Ok(f), Ok(g)) => {
+                assert!(limit > 130, "{taken} by hand, limit {limit}: no error");
+                same(&f, &g);
+                assert_eq!(f.t, all[taken..], "{taken} by hand");
+                assert_eq!(*f.t.last().unwrap(), t_end);
+            }
+            (Err(f), Err(g)) => {
+                assert_eq!(f, g, "{taken} by hand, limit {limit}");
+                assert!(
+                    matches!(f, Error::MaxSteps { steps: 30, t } if t > 0.0029 && t < 0.00301),
+                    "{f}"
+                );
+            }
+            (f, g) => panic!("{taken} by hand, limit {limit}: {f:?} vs {g:?}"),
+        }
+    }
+}

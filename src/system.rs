@@ -922,10 +922,12 @@ impl<'a, D: Dim, S: System<D>> Eval<'a, D, S>
 where
     DefaultAllocator: Allocator<D>,
 {
-    pub(crate) fn new(sys: &'a S, u: Vec<f64>) -> Self {
+    /// The model `sys` holding the inputs `u`: owned values, or a control log's row
+    /// (borrowed).
+    pub(crate) fn new(sys: &'a S, u: impl Into<std::borrow::Cow<'a, [f64]>>) -> Self {
         Eval {
             sys,
-            u: std::borrow::Cow::Owned(u),
+            u: u.into(),
             stats: Stats::default(),
             fault: None,
             sparse: Default::default(),
@@ -956,6 +958,21 @@ where
             std::borrow::Cow::Borrowed(r) => *r = v,
             u => *u = std::borrow::Cow::Borrowed(v),
         }
+    }
+
+    /// [`hold_row`](Self::hold_row) where the inputs held now are known to be a row:
+    /// the slice replaced without the test for owned inputs to free (the lean loop
+    /// over a log's rows, entered only with a row held; an owned value replaced here
+    /// would be leaked, not freed, so debug builds check).
+    #[inline(always)]
+    pub(crate) fn replace_row(&mut self, v: &'a [f64]) {
+        debug_assert!(matches!(self.u, std::borrow::Cow::Borrowed(_)));
+        std::mem::forget(std::mem::replace(&mut self.u, std::borrow::Cow::Borrowed(v)));
+    }
+
+    /// Whether the inputs held now are a borrowed row (not owned values).
+    pub(crate) fn holds_row(&self) -> bool {
+        matches!(self.u, std::borrow::Cow::Borrowed(_))
     }
 
     /// `dx ← f(t, x)`, counted but not checked: for explicit kernels whose step result

@@ -430,3 +430,54 @@ fn solve_after_steps_by_hand_is_the_general_paths() {
         }
     }
 }
+
+/// Inputs set by hand (`set_inputs`, owned values, not a row of the log) before `solve`:
+/// the fast path takes the general step until the next stop holds a row, then its own
+/// loop; every step the general path's, bit for bit, and the inputs set are used.
+#[test]
+fn inputs_set_by_hand_then_solve_is_the_general_paths() {
+    let c = log(0.0);
+    let t_end = c.times()[199] + 0.01;
+    let sys = unicycle::model();
+    let x0 = vector![0.0, 0.0, 0.0];
+    let fast_p = Problem::new(&sys, x0, (0.0, t_end)).controls(c.clone());
+    let general_p = Problem::new(&sys, x0, (0.0, t_end))
+        .controls(c.clone())
+        .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9));
+    fn run<M: Method<Sys> + Clone, S: reckon::System<Sys>>(
+        p: &Problem<'_, Sys, S>,
+        m: M,
+        o: &Options,
+        set: bool,
+    ) -> Solution<Sys> {
+        let mut it = p.integrator(m, o).unwrap();
+        for _ in 0..3 {
+            it.step().unwrap().unwrap();
+        }
+        if set {
+            it.set_inputs(&[0.7, -2.0]).unwrap();
+        }
+        it.solve().unwrap()
+    }
+    let euler = Options::default().fixed(0.004);
+    let exact = Options::default();
+    let flow = || Exact::new(unicycle::flow);
+    for set in [true, false] {
+        let (f, g) = (run(&fast_p, flow(), &exact, set), run(&general_p, flow(), &exact, set));
+        same(&f, &g);
+        let (f, g) = (
+            run(&fast_p, ExplicitEuler, &euler, set),
+            run(&general_p, ExplicitEuler, &euler, set),
+        );
+        same(&f, &g);
+    }
+    // the inputs set are the ones used: after three steps (three intervals of the log)
+    // the exact flow turns at −2 rad/s until the fourth control time
+    let f = run(&fast_p, flow(), &exact, true);
+    assert_eq!(f.t[1], c.times()[4]);
+    let heading = |s: &Solution<Sys>, k: usize| s.x[k][2];
+    let h = c.times()[4] - c.times()[3];
+    assert_eq!(heading(&f, 1), heading(&f, 0) - 2.0 * h);
+    let unset = run(&fast_p, flow(), &exact, false);
+    assert_eq!(heading(&unset, 1), heading(&unset, 0) + c.values(3).unwrap()[1] * h);
+}

@@ -165,12 +165,22 @@ where
     /// the steps, times, input switches, counters and errors of [`step`](Self::step),
     /// bit for bit, with the time, the next stop, the grid index and the counters in
     /// locals (`arrive` and `enter_segment` written out around them).
-    pub(super) fn run_lean_fixed(&mut self, keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
+    pub(super) fn run_lean_fixed(&mut self, mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
         // an exact flow's step is infinite: one step to each stop, every step on the grid
         // (a loop of its own, without the grid arithmetic)
         // and when the stops are a control log's own times (forwards, no breakpoints),
         // a loop that opens the next row at every stop, with `dir = 1` known
         let rows = self.stops_from.is_some() && self.problem.controls.is_some();
+        // the rows loop replaces the held row at every stop without a test for owned
+        // inputs: until a row is held (a start before the log's first time, with the
+        // problem's own inputs), the general step takes the run, keeping what `solve`
+        // keeps (no dense output on this path)
+        while rows && !self.f.holds_row() {
+            match self.step()? {
+                Some(t) => keep(t, &self.x),
+                None => return Ok(()),
+            }
+        }
         match (self.fixed_h.is_infinite(), rows) {
             (true, true) => self.run_lean_fixed_with::<true, true>(keep),
             (true, false) => self.run_lean_fixed_with::<true, false>(keep),
@@ -193,7 +203,9 @@ where
     /// log, and the state alternating between two buffers (no swap): 252, 296, 373; the
     /// step limit tested only where the count can have reached it (at entry, after a
     /// grid step short of the stop), a step to the stop counted only on its way out with
-    /// an error, and the last stop told before the increment: 242, 293, 371.
+    /// an error, and the last stop told before the increment: 242, 293, 371; a log's
+    /// rows replaced without the test for owned inputs (a row held from the start):
+    /// 235, 287, 365.
     // (`!(a >= b)` on purpose: a NaN takes the grid branch, as in `next_h`)
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     #[inline(never)]
@@ -361,8 +373,10 @@ where
                 // `enter_segment` with the time in a register
                 if ROWS {
                     // a new row at every stop (`segment` is written back by `sync!`)
+                    // (a row is held: `run_lean_fixed` enters with one, and every
+                    // arrival holds the next)
                     self.f
-                        .hold_row(rows.get(stop_idx - 1).map_or(&[], |r| r.as_slice()));
+                        .replace_row(rows.get(stop_idx - 1).map_or(&[], |r| r.as_slice()));
                 } else if let Some(c) = controls
                     && let Some(k) = c.segment_near(t, dir, self.segment)
                     && Some(k) != self.segment

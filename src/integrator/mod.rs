@@ -138,7 +138,7 @@ where
             None if problem.held.is_some() => {
                 let u = problem.held.clone().unwrap_or_default();
                 check_inputs(&u, n_in)?;
-                (None, u)
+                (None, u.into())
             }
             None if n_in > 0 => {
                 return Err(Error::invalid(
@@ -146,7 +146,7 @@ where
                     format!("the model reads {n_in} inputs but no controls were given"),
                 ));
             }
-            None => (None, Vec::new()),
+            None => (None, Vec::new().into()),
             Some(_) if problem.held.is_some() => {
                 return Err(Error::invalid(
                     "controls",
@@ -166,7 +166,8 @@ where
                         format!("t0 = {t0} is not after the first control time {}", c.times()[0]),
                     )
                 })?;
-                (Some(k), c.values(k).unwrap_or_default().to_vec())
+                // (the row borrowed, as at every breakpoint after)
+                (Some(k), std::borrow::Cow::Borrowed(c.values(k).unwrap_or_default()))
             }
         };
         // stops: breakpoints strictly inside the span, in the direction of travel (then t_end)

@@ -25,6 +25,13 @@ fn log(t0: f64) -> Controls {
 type Sys = reckon::nalgebra::Const<3>;
 type Run = (Solution<Sys>, Solution<Sys>, Vec<(f64, Vector3<f64>)>);
 
+/// `p` with an event that never fires: the same run through the general path.
+fn with_idle_event<'a, S: reckon::System<Sys> + Copy>(p: &Problem<'a, Sys, S>) -> Problem<'a, Sys, S> {
+    Problem::new(p.system, p.x0, (p.t0, p.t_end))
+        .controls(p.controls.clone().unwrap())
+        .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9))
+}
+
 /// The fast path, the general path (an event that never fires) and `step()` one by one.
 fn both<S: reckon::System<Sys> + Copy, M: Method<Sys> + Clone>(
     p: &Problem<'_, Sys, S>,
@@ -32,12 +39,7 @@ fn both<S: reckon::System<Sys> + Copy, M: Method<Sys> + Clone>(
     opts: &Options,
 ) -> Run {
     let fast = p.solve(method.clone(), opts).unwrap();
-    let general = {
-        let q = Problem::new(p.system, p.x0, (p.t0, p.t_end))
-            .controls(p.controls.clone().unwrap())
-            .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9));
-        q.solve(method.clone(), opts).unwrap()
-    };
+    let general = with_idle_event(p).solve(method.clone(), opts).unwrap();
     let stepped: Vec<(f64, Vector3<f64>)> = {
         let mut it = p.integrator(method, opts).unwrap();
         let mut v = vec![(it.t(), *it.x())];
@@ -174,9 +176,7 @@ fn errors_on_the_fast_path_are_the_general_paths() {
     };
     let q = Problem::new(&sys, vector![0.0, 0.0, 0.0], (0.0, t_end)).controls(c.clone());
     let fast = q.solve(Exact::new(flow), &Options::default()).unwrap_err();
-    let general = Problem::new(&sys, vector![0.0, 0.0, 0.0], (0.0, t_end))
-        .controls(c.clone())
-        .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9))
+    let general = with_idle_event(&q)
         .solve(Exact::new(flow), &Options::default())
         .unwrap_err();
     assert_eq!(fast, general);
@@ -329,9 +329,7 @@ fn every_exit_after_an_odd_and_an_even_number_of_steps_is_the_general_paths() {
                     if t == at { vector![y[0], f64::INFINITY, y[2]] } else { y }
                 };
                 let fast = p.solve(Exact::new(flow), &Options::default()).unwrap_err();
-                let general = Problem::new(&sys, vector![0.1, -0.2, 0.3], (-50.0, t_end))
-                    .controls(c.clone())
-                    .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9))
+                let general = with_idle_event(&p)
                     .solve(Exact::new(flow), &Options::default())
                     .unwrap_err();
                 assert_eq!(fast, general);
@@ -350,11 +348,7 @@ fn every_exit_after_an_odd_and_an_even_number_of_steps_is_the_general_paths() {
                 let q = Problem::new(&g, vector![0.1, -0.2, 0.3], (-50.0, t_end)).controls(c.clone());
                 let o = Options::default().fixed(0.5);
                 let fast = q.solve(ExplicitEuler, &o).unwrap_err();
-                let general = Problem::new(&g, vector![0.1, -0.2, 0.3], (-50.0, t_end))
-                    .controls(c.clone())
-                    .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9))
-                    .solve(ExplicitEuler, &o)
-                    .unwrap_err();
+                let general = with_idle_event(&q).solve(ExplicitEuler, &o).unwrap_err();
                 assert_eq!(fast, general);
                 assert!(matches!(fast, Error::NonFinite { component: 0, .. }), "{fast}");
             }
@@ -391,9 +385,7 @@ fn solve_after_steps_by_hand_is_the_general_paths() {
     let sys = unicycle::model();
     let x0 = vector![0.0, 0.0, 0.0];
     let fast_p = Problem::new(&sys, x0, (0.0, t_end)).controls(c.clone());
-    let general_p = Problem::new(&sys, x0, (0.0, t_end))
-        .controls(c.clone())
-        .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9));
+    let general_p = with_idle_event(&fast_p);
     // every time, stepped by hand
     let all: Vec<f64> = {
         let mut it = fast_p
@@ -441,9 +433,7 @@ fn inputs_set_by_hand_then_solve_is_the_general_paths() {
     let sys = unicycle::model();
     let x0 = vector![0.0, 0.0, 0.0];
     let fast_p = Problem::new(&sys, x0, (0.0, t_end)).controls(c.clone());
-    let general_p = Problem::new(&sys, x0, (0.0, t_end))
-        .controls(c.clone())
-        .event(Event::new(|_t, x: &Vector3<f64>| x[0] + 1e9));
+    let general_p = with_idle_event(&fast_p);
     fn run<M: Method<Sys> + Clone, S: reckon::System<Sys>>(
         p: &Problem<'_, Sys, S>,
         m: M,

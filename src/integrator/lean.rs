@@ -172,9 +172,9 @@ where
         // a loop that opens the next row at every stop, with `dir = 1` known
         let rows = self.stops_from.is_some() && self.problem.controls.is_some();
         // the rows loop replaces the held row at every stop without a test for owned
-        // inputs: until a row is held (a start before the log's first time, with the
-        // problem's own inputs), the general step takes the run, keeping what `solve`
-        // keeps (no dense output on this path)
+        // inputs: until a row is held again (after `set_inputs`, which holds owned
+        // values), the general step takes the run, keeping what `solve` keeps (no dense
+        // output on this path)
         while rows && !self.f.holds_row() {
             match self.step()? {
                 Some(t) => keep(t, &self.x),

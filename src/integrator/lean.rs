@@ -9,7 +9,37 @@ use crate::error::{Error, Result};
 use crate::methods::{Method, Outcome};
 use crate::system::System;
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, Dim};
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// What the fixed-step lean loop keeps of a step ending at `(t, x)`: a closure's
+/// choice, or every step ([`Slots`](super::save::Slots)).
+pub(super) trait Keep<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Keep `(t, x)`.
+    fn keep(&mut self, t: f64, x: &OVector<f64, D>);
+}
+
+impl<D: Dim, F: FnMut(f64, &OVector<f64, D>)> Keep<D> for F
+where
+    DefaultAllocator: Allocator<D>,
+{
+    #[inline(always)]
+    fn keep(&mut self, t: f64, x: &OVector<f64, D>) {
+        self(t, x);
+    }
+}
+
+impl<D: Dim> Keep<D> for super::save::Slots<'_, D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    #[inline(always)]
+    fn keep(&mut self, t: f64, x: &OVector<f64, D>) {
+        super::save::Slots::keep(self, t, x);
+    }
+}
 
 impl<D: Dim, S: System<D>, M: Method<D>> Integrator<'_, '_, D, S, M>
 where
@@ -165,7 +195,7 @@ where
     /// the steps, times, input switches, counters and errors of [`step`](Self::step),
     /// bit for bit, with the time, the next stop, the grid index and the counters in
     /// locals (`arrive` and `enter_segment` written out around them).
-    pub(super) fn run_lean_fixed(&mut self, mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
+    pub(super) fn run_lean_fixed(&mut self, mut keep: impl Keep<D>) -> Result<()> {
         // an exact flow's step is infinite: one step to each stop, every step on the grid
         // (a loop of its own, without the grid arithmetic)
         // and when the stops are a control log's own times (forwards, no breakpoints),
@@ -177,7 +207,7 @@ where
         // output on this path)
         while rows && !self.f.holds_row() {
             match self.step()? {
-                Some(t) => keep(t, &self.x),
+                Some(t) => keep.keep(t, &self.x),
                 None => return Ok(()),
             }
         }
@@ -205,13 +235,15 @@ where
     /// grid step short of the stop), a step to the stop counted only on its way out with
     /// an error, and the last stop told before the increment: 242, 293, 371; a log's
     /// rows replaced without the test for owned inputs (a row held from the start):
-    /// 235, 287, 365.
+    /// 235, 287, 365; every step written into the output's spare capacity, one count
+    /// and one room test for the times and the states (`Slots`), and the end of the log
+    /// fetched out of line: 232, 279, 357.
     // (`!(a >= b)` on purpose: a NaN takes the grid branch, as in `next_h`)
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     #[inline(never)]
     fn run_lean_fixed_with<const ONE_PER_STOP: bool, const ROWS: bool>(
         &mut self,
-        mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>),
+        mut keep: impl Keep<D>,
     ) -> Result<()> {
         let t0 = self.problem.t0;
         let dir = if ROWS { 1.0 } else { self.dir };
@@ -242,7 +274,11 @@ where
         macro_rules! stop_at {
             ($i:expr) => {
                 if ROWS {
-                    log_stops.get($i).copied().unwrap_or(t_end)
+                    // (the end once per run: out of the loop's way)
+                    match log_stops.get($i) {
+                        Some(&s) => s,
+                        None => cold(t_end),
+                    }
                 } else {
                     self.stops.get($i).copied().unwrap_or(t_end)
                 }
@@ -306,7 +342,7 @@ where
                     home!($odd);
                     sync!();
                     self.land_without_step(stop);
-                    keep(self.t, &self.x);
+                    keep.keep(self.t, &self.x);
                     if self.done {
                         return Ok(());
                     }
@@ -367,7 +403,7 @@ where
                     home!(!$odd);
                     sync!();
                     self.done = true;
-                    keep(t, &self.x);
+                    keep.keep(t, &self.x);
                     return Ok(());
                 }
                 // `enter_segment` with the time in a register
@@ -411,7 +447,7 @@ where
                             if target == stop {
                                 arrive!($dst, $odd);
                             }
-                            keep(t, &self.$dst);
+                            keep.keep(t, &self.$dst);
                             // the step limit, before the next step: reached only here,
                             // as every arrival sets the count to zero (max_steps ≥ 1)
                             limit!(!$odd);
@@ -425,7 +461,7 @@ where
                     grid_k += 1;
                 }
                 arrive!($dst, $odd);
-                keep(t, &self.$dst);
+                keep.keep(t, &self.$dst);
             }};
         }
         limit!(false);
@@ -438,4 +474,11 @@ where
             }
         }
     }
+}
+
+/// `v`, on a path the compiler is to keep out of the way.
+#[cold]
+#[inline(never)]
+fn cold(v: f64) -> f64 {
+    v
 }

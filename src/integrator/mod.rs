@@ -721,12 +721,12 @@ where
             }
         } else if self.is_lean_fixed() {
             if out.every_step() {
-                self.run_lean_fixed(|t, x| out.push(t, x))?;
+                self.run_lean_fixed(save::Slots::new(&mut out))?;
             } else if out.end_only() {
-                self.run_lean_fixed(|_, _| {})?;
+                self.run_lean_fixed(|_: f64, _: &OVector<f64, D>| {})?;
                 out.step(self.t, &self.x, None);
             } else {
-                self.run_lean_fixed(|t, x| out.step(t, x, None))?;
+                self.run_lean_fixed(|t: f64, x: &OVector<f64, D>| out.step(t, x, None))?;
             }
         }
         while self.step()?.is_some() {

@@ -84,6 +84,101 @@ where
     }
 }
 
+/// Every step written straight into the spare capacity of a [`Saver`]'s vectors: one
+/// count and one room test for both (a `Vec::push` each tests its own capacity and
+/// stores its own length), the lengths set when the room is refilled and when the
+/// writer is dropped (on every way out, a panic included).
+pub(crate) struct Slots<'s, D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    saver: &'s mut Saver<D>,
+    /// The first free places of `saver.t` and `saver.x`, with room for `room` each.
+    t: *mut f64,
+    x: *mut OVector<f64, D>,
+    room: usize,
+    /// Places written since the lengths were last set.
+    n: usize,
+}
+
+impl<'s, D: Dim> Slots<'s, D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// A writer at the end of every step kept by `saver` ([`Save::Steps`]).
+    pub(crate) fn new(saver: &'s mut Saver<D>) -> Self {
+        let mut s = Slots {
+            saver,
+            t: std::ptr::null_mut(),
+            x: std::ptr::null_mut(),
+            room: 0,
+            n: 0,
+        };
+        s.aim();
+        s
+    }
+
+    /// Point at the free places of both vectors (no step written since the lengths
+    /// were set).
+    fn aim(&mut self) {
+        debug_assert_eq!(self.n, 0);
+        let (t, x) = (&mut self.saver.t, &mut self.saver.x);
+        self.room = (t.capacity() - t.len()).min(x.capacity() - x.len());
+        self.t = t.spare_capacity_mut().as_mut_ptr().cast();
+        self.x = x.spare_capacity_mut().as_mut_ptr().cast();
+    }
+
+    /// Set the lengths to take the places written.
+    fn commit(&mut self) {
+        let (t, x) = (&mut self.saver.t, &mut self.saver.x);
+        // SAFETY: the first `n ≤ room` free places of both vectors were written (`keep`),
+        // and nothing else touched the vectors since `aim` (they are borrowed here)
+        unsafe {
+            t.set_len(t.len() + self.n);
+            x.set_len(x.len() + self.n);
+        }
+        self.n = 0;
+    }
+
+    /// The room is full: the lengths set, room reserved for as many again, and aimed.
+    #[cold]
+    #[inline(never)]
+    fn refill(&mut self) {
+        self.commit();
+        let more = self.saver.t.len().max(64);
+        self.saver.t.reserve(more);
+        self.saver.x.reserve(more);
+        self.aim();
+    }
+
+    /// Keep `(t, x)`.
+    #[inline(always)]
+    pub(crate) fn keep(&mut self, t: f64, x: &OVector<f64, D>) {
+        if self.n >= self.room {
+            self.refill();
+        }
+        // (every field read before the writes, which the compiler cannot tell apart
+        // from them)
+        let (n, tp, xp) = (self.n, self.t, self.x);
+        // SAFETY: `n < room`: the place is inside both vectors' spare capacity, aimed at
+        // since they last changed
+        unsafe {
+            tp.add(n).write(t);
+            xp.add(n).write(x.clone());
+        }
+        self.n = n + 1;
+    }
+}
+
+impl<D: Dim> Drop for Slots<'_, D>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn drop(&mut self) {
+        self.commit();
+    }
+}
+
 /// Whether a run saving `save` needs each step's dense polynomial (output times).
 pub(crate) fn needs_dense(save: &Save) -> bool {
     matches!(save, Save::At(_))
@@ -201,5 +296,37 @@ where
             self.x.push_owned(x);
         }
         (self.t, self.x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Vector2, vector};
+
+    /// Slots write past the room first reserved (refilling), and the lengths are set on
+    /// drop (every way out of a run): the kept steps are those a `push` per step keeps.
+    #[test]
+    fn slots_keep_what_pushes_keep_through_refills_and_drops() {
+        let x0 = vector![1.0, -1.0];
+        let mut a = Saver::<nalgebra::Const<2>>::new(&Save::Steps, 1.0, 0.0, &x0);
+        let mut b = Saver::<nalgebra::Const<2>>::new(&Save::Steps, 1.0, 0.0, &x0);
+        a.reserve(3);
+        let step = |k: usize| (k as f64 * 0.25, Vector2::new(k as f64, -(k as f64).sqrt()));
+        for round in 0..3 {
+            // a writer per round: each drop sets the lengths, the next aims past them
+            let mut s = Slots::new(&mut a);
+            for k in round * 700..(round + 1) * 700 {
+                let (t, x) = step(k);
+                s.keep(t, &x);
+                b.push(t, &x);
+            }
+        }
+        let ((ta, xa), (tb, xb)) = (a.finish(), b.finish());
+        assert_eq!(ta.len(), 2101);
+        assert_eq!(ta, tb);
+        assert_eq!(xa, xb);
+        assert_eq!(ta[2100], 2099.0 * 0.25);
+        assert_eq!(xa[2100], Vector2::new(2099.0, -(2099.0f64).sqrt()));
     }
 }

@@ -147,6 +147,45 @@ fn regular_logs_on_and_off_the_step_grid_agree_with_the_general_path() {
     }
 }
 
+/// A log at the step's rate is checked a run of stops at a time (each stop the next grid
+/// point, none the last): runs broken by a stop off the grid (a grid step before it), a
+/// stop within rounding of its grid point (on the grid by tolerance, not by the first
+/// test), a missing row (a grid step with no stop), a start inside an interval and a run
+/// ending at the log's last stop: bit for bit the general path's, with the steps counted.
+#[test]
+fn checked_runs_of_a_log_at_the_step_rate_are_the_general_paths() {
+    let sys = unicycle::model();
+    let h = 0.01;
+    let mut times: Vec<f64> = (0..N).map(|k| k as f64 * h).collect();
+    times[300] += 0.003;
+    times[1000] += 1e-14;
+    times[1001] += 0.004;
+    times.remove(5000);
+    let n = times.len();
+    let values = (0..n)
+        .map(|k| vec![1.0 + 0.5 * (k as f64 * 1e-2).sin(), 0.8 * (k as f64 * 7e-3).cos()])
+        .collect();
+    let c = Controls::new(times.clone(), values).unwrap();
+    for (t0, t_end) in [(0.0, N as f64 * h), (0.0, 77.77), (12.345, 99.995), (0.0, times[n - 1])] {
+        let p = Problem::new(&sys, vector![0.1, -0.2, 0.3], (t0, t_end)).controls(c.clone());
+        let (f, g, s) = both(&p, ExplicitEuler, &Options::default().fixed(h));
+        same(&f, &g);
+        assert_eq!(s.len(), f.t.len());
+        assert!(
+            s.iter()
+                .zip(f.t.iter().zip(&f.x))
+                .all(|(a, (t, x))| a.0 == *t && a.1 == *x)
+        );
+        // every control time inside the span is a stored time
+        assert!(times.iter().filter(|&&t| t > t0 && t < t_end).all(|t| f.t.contains(t)));
+        if t0 == 0.0 && t_end == N as f64 * h {
+            // one step per grid interval, plus one for each of the two stops off the grid
+            // (the third is within rounding: its grid point)
+            assert_eq!(f.stats.accepted as usize, N + 2, "{t0} {t_end}");
+        }
+    }
+}
+
 #[test]
 fn backwards_and_from_a_late_start_the_paths_agree() {
     let c = log(100.0);

@@ -510,3 +510,137 @@ fn inputs_set_by_hand_then_solve_is_the_general_paths() {
     let unset = run(&fast_p, flow(), &exact, false);
     assert_eq!(heading(&unset, 1), heading(&unset, 0) + c.values(3).unwrap()[1] * h);
 }
+
+/// A log at the step's rate is told apart a block of stops at a time, out of the loop:
+/// runs on the grid of every length around the block sizes (shorter than the shortest
+/// run the one-step-per-stop loop takes, as long, longer; around the longest stretch
+/// looked at once), each broken by a stop off the grid, one just inside and one just
+/// outside the grid test's tolerance, one within rounding, a missing row and an extra
+/// stop between grid points; forwards and backwards, with breakpoints, with every save
+/// mode, and failing inside a run and at its edges: bit for bit the general path's, with
+/// the steps counted (a stop outside the tolerance taken as on the grid saves a step).
+#[test]
+fn runs_on_the_grid_of_every_length_broken_every_way_are_the_general_paths() {
+    let sys = unicycle::model();
+    let h = 0.01;
+    let runs = [15, 16, 17, 1, 7, 8, 9, 2047, 2048, 2049, 3, 4100, 31, 33, 2, 0, 0, 40];
+    let (mut times, mut k, mut extra_steps) = (vec![], 0usize, 0);
+    for (r, &len) in runs.iter().enumerate() {
+        times.extend((k..k + len).map(|j| j as f64 * h));
+        k += len;
+        let g = k as f64 * h;
+        match r % 6 {
+            0 => times.push(g + 0.3 * h),
+            1 => times.push(g + 0.9e-10 * h),
+            2 => times.push(g + 1.1e-10 * h),
+            3 => times.push(g + 1e-15),
+            4 => {} // a missing row
+            _ => times.extend([g, g + 0.5 * h]),
+        }
+        extra_steps += usize::from(matches!(r % 6, 0 | 2 | 5));
+        k += 1;
+    }
+    times.extend((k..k + 20).map(|j| j as f64 * h));
+    let m = k + 20;
+    let n = times.len();
+    let values: Vec<Vec<f64>> = (0..n)
+        .map(|k| vec![1.0 + 0.5 * (k as f64 * 1e-2).sin(), 0.8 * (k as f64 * 7e-3).cos()])
+        .collect();
+    let c = Controls::new(times.clone(), values).unwrap();
+    let t_end = m as f64 * h;
+    let x0 = vector![0.1, -0.2, 0.3];
+    let fwd = Problem::new(&sys, x0, (0.0, t_end)).controls(c.clone());
+    let bwd = Problem::new(&sys, x0, (t_end, 0.0)).controls(c.clone());
+    // (from inside a run, on the grid of the log and off it)
+    let late = Problem::new(&sys, x0, (20.0, 61.0)).controls(c.clone());
+    let off = Problem::new(&sys, x0, (20.004, 61.0)).controls(c.clone());
+    let opts = Options::default().fixed(h);
+    for (p, o) in [
+        (&fwd, opts.clone()),
+        (&fwd, opts.clone().save(Save::Every(7))),
+        (&fwd, opts.clone().save(Save::End)),
+        (
+            &fwd,
+            opts.clone().breakpoints([times[30], 21.0 + 0.25 * h, times[2100]]),
+        ),
+        (&bwd, opts.clone()),
+        (&bwd, opts.clone().breakpoints([times[5000]])),
+        (&late, opts.clone()),
+        (&off, opts.clone()),
+    ] {
+        let (f, g, s) = both(p, ExplicitEuler, &o);
+        same(&f, &g);
+        if o.save == Save::default() {
+            assert_eq!(s.len(), f.t.len());
+            assert!(
+                s.iter()
+                    .zip(f.t.iter().zip(&f.x))
+                    .all(|(a, (t, x))| a.0 == *t && a.1 == *x)
+            );
+        } else {
+            assert_eq!(*f.last().1, s.last().unwrap().1);
+        }
+        let (f, g, _) = both(p, Exact::new(unicycle::flow), &o);
+        same(&f, &g);
+    }
+    // one step per grid interval, one more for each stop the grid test puts off the grid
+    let f = fwd.solve(ExplicitEuler, &opts).unwrap();
+    assert_eq!(f.stats.accepted as usize, m + extra_steps);
+    assert!(times.iter().all(|t| f.t.contains(t)));
+    // a derivative that overflows with one row's input: inside a run, at its edges
+    for bad in [5, 16, 17, 2060, 2079, 2080, 4200, 6000, n - 3] {
+        let v_bad = c.values(bad).unwrap()[0];
+        let g = model!(|_t, x: [S; 3], u: [2]| vector![
+            x[2].cos() * u[0] * if u[0] == v_bad { 1e308 } else { 1.0 } * 1e10,
+            x[2].sin() * u[0],
+            x[0] * 0.0 + u[1]
+        ]);
+        let q = Problem::new(&g, x0, (0.0, t_end)).controls(c.clone());
+        let fast = q.solve(ExplicitEuler, &opts).unwrap_err();
+        let general = with_idle_event(&q).solve(ExplicitEuler, &opts).unwrap_err();
+        assert_eq!(fast, general);
+        assert!(matches!(fast, Error::NonFinite { component: 0, .. }), "{fast}");
+    }
+}
+
+/// A log off the step's grid goes through the grid loop a stretch of stops at a time
+/// (16, then 32, 64, …): logs whose last stop ends a stretch, or falls just before or
+/// after its end, with stops closer than `t − t0` resolves (landed on without a step)
+/// at every place, the ends of stretches among them: bit for bit the general path's.
+#[test]
+fn stretches_of_a_log_off_the_grid_ending_anywhere_are_the_general_paths() {
+    let sys = unicycle::model();
+    let t0 = -1000.0;
+    for n in 1..130 {
+        for twins in [2, 3, usize::MAX] {
+            // (`s − t0` is mostly the same for `s` and the next float up: one is landed on)
+            let mut times = vec![t0];
+            for j in 0..n {
+                let s = j as f64 * 0.37;
+                times.push(s);
+                if j % twins == 1 {
+                    times.push(s.next_up());
+                }
+            }
+            if n > 1 && twins < usize::MAX {
+                assert!(times[3] > times[2] && times[2] - t0 == times[3] - t0);
+            }
+            let values: Vec<Vec<f64>> = (0..times.len())
+                .map(|k| vec![1.0 + 0.1 * k as f64, 0.3 - 0.01 * k as f64])
+                .collect();
+            let c = Controls::new(times.clone(), values).unwrap();
+            let t_end = times[times.len() - 1] + 0.2;
+            let p = Problem::new(&sys, vector![0.1, -0.2, 0.3], (t0, t_end)).controls(c);
+            for opts in [
+                Options::default().fixed(0.5),
+                Options::default().fixed(0.5).breakpoints([-3.0]),
+            ] {
+                let (f, g, s) = both(&p, ExplicitEuler, &opts);
+                same(&f, &g);
+                assert_eq!(s.len(), f.t.len());
+                assert!(s.iter().zip(&f.x).all(|(a, b)| a.1 == *b));
+                assert_eq!(f.last().0, t_end);
+            }
+        }
+    }
+}

@@ -211,12 +211,83 @@ where
                 None => return Ok(()),
             }
         }
+        let all = usize::MAX;
         match (self.fixed_h.is_infinite(), rows) {
-            (true, true) => self.run_lean_fixed_with::<true, true>(keep),
-            (true, false) => self.run_lean_fixed_with::<true, false>(keep),
-            (false, true) => self.run_lean_fixed_with::<false, true>(keep),
-            (false, false) => self.run_lean_fixed_with::<false, false>(keep),
+            (true, true) => return self.run_lean_fixed_with::<true, true, _>(keep, all).map(drop),
+            (true, false) => return self.run_lean_fixed_with::<true, false, _>(keep, all).map(drop),
+            (false, _) => {}
         }
+        // A fixed step: the stops ahead that each take one step on the grid (a log at the
+        // step's rate, the usual case) go through the one-step-per-stop loop, which has no
+        // grid arithmetic (told apart here in blocks, out of the loop: `on_grid_run`);
+        // the others through the grid loop, for a stretch that doubles while the stops
+        // stay off the grid (so that a log at another rate costs a scan per 2048 stops).
+        let mut off = MIN_RUN;
+        while !self.done {
+            let from = self.stop_idx;
+            let run = self.on_grid_run(CHUNK);
+            // (a short run: only at the end of the log, where nothing follows it)
+            if run >= MIN_RUN || from + run > self.stops.len() {
+                off = MIN_RUN;
+                let bound = from + run;
+                keep = match rows {
+                    true => self.run_lean_fixed_with::<true, true, _>(keep, bound)?,
+                    false => self.run_lean_fixed_with::<true, false, _>(keep, bound)?,
+                };
+            } else {
+                let bound = from + off;
+                off = (2 * off).min(CHUNK);
+                keep = match rows {
+                    true => self.run_lean_fixed_with::<false, true, _>(keep, bound)?,
+                    false => self.run_lean_fixed_with::<false, false, _>(keep, bound)?,
+                };
+            }
+        }
+        Ok(())
+    }
+
+    /// How many of the stops ahead (from `stop_idx`, with `t_end` after the last; at
+    /// most `limit`) the fixed-step loop reaches in one step each: stop `i` (`τᵢ = sᵢ − t0`)
+    /// within `10⁻¹⁰·h` of grid point `grid_k + 1 + i`, `τ = (grid_k + 1 + i)·(±h)`, the
+    /// test by which the grid loop steps straight to a stop and counts it on the grid.
+    /// (The grid loop takes exactly those steps: the same `h = τᵢ − τᵢ₋₁`, nonzero as
+    /// consecutive grid points below 2⁵⁰ are at least `3h/4` apart; counts that far
+    /// take the grid loop.) In blocks of 8, without a branch per stop.
+    fn on_grid_run(&self, limit: usize) -> usize {
+        let (t0, fixed_h) = (self.problem.t0, self.fixed_h);
+        let signed_h = self.dir * fixed_h;
+        let tol = 1e-10 * fixed_h;
+        let k0 = self.grid_k + 1;
+        if k0.saturating_add(limit as u64) >= 1 << 50 {
+            return 0;
+        }
+        let rest = self.stops.get(self.stop_idx..).unwrap_or_default();
+        // (a first stop where the run stands is landed on without a step)
+        if rest.first().copied().unwrap_or(self.t_end) - t0 == self.tau {
+            return 0;
+        }
+        let n = rest.len().min(limit);
+        let on = |i: usize, s: f64| ((s - t0) - (k0 + i as u64) as i64 as f64 * signed_h).abs() <= tol;
+        let mut i = 0;
+        for block in rest[..n].chunks_exact(8) {
+            // (`k + j` for `j < 8` exact: every count here is below 2⁵³)
+            let k = (k0 + i as u64) as i64 as f64;
+            let mut all = true;
+            for (j, &s) in block.iter().enumerate() {
+                all &= ((s - t0) - (k + j as f64) * signed_h).abs() <= tol;
+            }
+            if !all {
+                break;
+            }
+            i += 8;
+        }
+        while i < n && on(i, rest[i]) {
+            i += 1;
+        }
+        if i == rest.len() && i < limit && on(i, self.t_end) {
+            i += 1;
+        }
+        i
     }
 
     /// [`run_lean_fixed`](Self::run_lean_fixed) with `ONE_PER_STOP = fixed_h.is_infinite()`
@@ -237,14 +308,17 @@ where
     /// rows replaced without the test for owned inputs (a row held from the start):
     /// 235, 287, 365; every step written into the output's spare capacity, one count
     /// and one room test for the times and the states (`Slots`), and the end of the log
-    /// fetched out of line: 232, 279, 357.
+    /// fetched out of line: 232, 279, 357; a log at the step's rate told apart a block
+    /// of stops at a time out of the loop (`on_grid_run`, 5.5 instructions per stop) and
+    /// run through the one-step-per-stop loop, with no grid arithmetic: Euler 225.
     // (`!(a >= b)` on purpose: a NaN takes the grid branch, as in `next_h`)
     #[allow(clippy::neg_cmp_op_on_partial_ord)]
     #[inline(never)]
-    fn run_lean_fixed_with<const ONE_PER_STOP: bool, const ROWS: bool>(
+    fn run_lean_fixed_with<const ONE_PER_STOP: bool, const ROWS: bool, K: Keep<D>>(
         &mut self,
-        mut keep: impl Keep<D>,
-    ) -> Result<()> {
+        mut keep: K,
+        bound: usize,
+    ) -> Result<K> {
         let t0 = self.problem.t0;
         let dir = if ROWS { 1.0 } else { self.dir };
         let (fixed_h, max_steps) = (self.fixed_h, self.max_steps);
@@ -258,7 +332,7 @@ where
         // a log's stops are its own times `lo..lo + n_stops` (borrowed for 'p, not through
         // `self`), with its rows cut to the same length: the row of a stop passed is in
         // bounds once `stop_idx ≤ n_stops` is known
-        let (log_stops, rows) = match controls {
+        let (all_stops, all_rows) = match controls {
             Some(c) if ROWS => {
                 let n = self.stops.len();
                 let times = c.times().get(lo..lo + n).unwrap_or_default();
@@ -268,19 +342,35 @@ where
             }
             _ => (&[][..], &[][..]),
         };
-        let n_stops = if ROWS { log_stops.len() } else { self.stops.len() };
-        debug_assert!(!ROWS || log_stops == &self.stops[..]);
-        // the stop after `i` passed (`t_end` after the last)
+        let n_all = if ROWS { all_stops.len() } else { self.stops.len() };
+        debug_assert!(!ROWS || all_stops == &self.stops[..]);
+        // this call's stops: those before `bound − 1`, the last it arrives at (`t_end` at
+        // `n_all`), after which it returns (a pause, when the run goes on)
+        let n_stops = bound.saturating_sub(1).min(n_all);
+        let (log_stops, rows) = if ROWS {
+            (&all_stops[..n_stops], &all_rows[..n_stops])
+        } else {
+            (&[][..], &[][..])
+        };
+        let last_stop = if n_stops < n_all {
+            if ROWS { all_stops[n_stops] } else { self.stops[n_stops] }
+        } else {
+            t_end
+        };
+        // the stop after `i` passed (`last_stop` after the last of this call's)
         macro_rules! stop_at {
             ($i:expr) => {
                 if ROWS {
-                    // (the end once per run: out of the loop's way)
+                    // (the last once per call: out of the loop's way)
                     match log_stops.get($i) {
                         Some(&s) => s,
-                        None => cold(t_end),
+                        None => cold(last_stop),
                     }
                 } else {
-                    self.stops.get($i).copied().unwrap_or(t_end)
+                    match self.stops.get($i) {
+                        Some(&s) if $i < n_stops => s,
+                        _ => last_stop,
+                    }
                 }
             };
         }
@@ -299,8 +389,8 @@ where
                 self.grid_k = grid_k;
                 self.f.stats.accepted += std::mem::take(&mut accepted);
                 // (not for the arrival at t_end, as `arrive`, which stops there)
-                if ROWS && stop_idx.min(n_stops) > entry {
-                    self.segment = Some(lo + stop_idx.min(n_stops) - 1);
+                if ROWS && stop_idx.min(n_all) > entry {
+                    self.segment = Some(lo + stop_idx.min(n_all) - 1);
                 }
             };
         }
@@ -343,8 +433,9 @@ where
                     sync!();
                     self.land_without_step(stop);
                     keep.keep(self.t, &self.x);
-                    if self.done {
-                        return Ok(());
+                    // (past this call's last stop: back to the caller, which looks again)
+                    if self.done || self.stop_idx > n_stops {
+                        return Ok(keep);
                     }
                     (t, attempts, stop_idx) = (self.t, self.attempts, self.stop_idx);
                     stop = stop_at!(stop_idx);
@@ -391,6 +482,26 @@ where
         }
         // `arrive` at the stop (the state in `self.$dst`, `$odd` before the step that
         // arrived): the next stop, the inputs of the interval it opens
+        // `enter_segment` with the time in a register, for stop `stop_idx − 1` passed
+        // (`$rows`: the rows it may be in)
+        macro_rules! enter {
+            ($rows:expr) => {
+                if ROWS {
+                    // a new row at every stop (`segment` is written back by `sync!`)
+                    // (a row is held: `run_lean_fixed` enters with one, and every
+                    // arrival holds the next)
+                    self.f
+                        .replace_row($rows.get(stop_idx - 1).map_or(&[], |r| r.as_slice()));
+                } else if let Some(c) = controls
+                    && let Some(k) = c.segment_near(t, dir, self.segment)
+                    && Some(k) != self.segment
+                {
+                    self.segment = Some(k);
+                    self.f.hold_row(c.values(k).unwrap_or_default());
+                }
+                self.method.reset();
+            };
+        }
         macro_rules! arrive {
             ($dst:ident, $odd:expr) => {{
                 attempts = 0;
@@ -401,26 +512,20 @@ where
                 if last {
                     // (after the step the state is home when it was not before)
                     home!(!$odd);
+                    if stop_idx > n_all {
+                        sync!();
+                        self.done = true;
+                        keep.keep(t, &self.x);
+                        return Ok(keep);
+                    }
+                    // the last stop of this call, not the end: into the next interval,
+                    // then back to the caller
+                    enter!(all_rows);
                     sync!();
-                    self.done = true;
                     keep.keep(t, &self.x);
-                    return Ok(());
+                    return Ok(keep);
                 }
-                // `enter_segment` with the time in a register
-                if ROWS {
-                    // a new row at every stop (`segment` is written back by `sync!`)
-                    // (a row is held: `run_lean_fixed` enters with one, and every
-                    // arrival holds the next)
-                    self.f
-                        .replace_row(rows.get(stop_idx - 1).map_or(&[], |r| r.as_slice()));
-                } else if let Some(c) = controls
-                    && let Some(k) = c.segment_near(t, dir, self.segment)
-                    && Some(k) != self.segment
-                {
-                    self.segment = Some(k);
-                    self.f.hold_row(c.values(k).unwrap_or_default());
-                }
-                self.method.reset();
+                enter!(rows);
                 stop = stop_at!(stop_idx);
                 stop_tau = stop - t0;
             }};
@@ -475,6 +580,13 @@ where
         }
     }
 }
+
+/// Stops in a row on the grid worth the one-step-per-stop loop (and the grid loop's
+/// first stretch when they are not).
+const MIN_RUN: usize = 16;
+/// The most stops looked at (or taken by the grid loop) at a time: a scan stays in cache
+/// for the run that follows it.
+const CHUNK: usize = 2048;
 
 /// `v`, on a path the compiler is to keep out of the way.
 #[cold]

@@ -256,7 +256,7 @@ where
     fn on_grid_run(&self, limit: usize) -> usize {
         let (t0, fixed_h) = (self.problem.t0, self.fixed_h);
         let signed_h = self.dir * fixed_h;
-        let tol = 1e-10 * fixed_h;
+        let tol = super::GRID_TOL * fixed_h;
         let k0 = self.grid_k + 1;
         if k0.saturating_add(limit as u64) >= 1 << 50 {
             return 0;
@@ -267,7 +267,7 @@ where
             return 0;
         }
         let n = rest.len().min(limit);
-        let on = |i: usize, s: f64| ((s - t0) - (k0 + i as u64) as i64 as f64 * signed_h).abs() <= tol;
+        let on = |i: usize, s: f64| ((s - t0) - super::grid_point(self.grid_k + i as u64, signed_h)).abs() <= tol;
         let mut i = 0;
         for block in rest[..n].chunks_exact(8) {
             // (`k + j` for `j < 8` exact: every count here is below 2⁵³)
@@ -352,11 +352,7 @@ where
         } else {
             (&[][..], &[][..])
         };
-        let last_stop = if n_stops < n_all {
-            if ROWS { all_stops[n_stops] } else { self.stops[n_stops] }
-        } else {
-            t_end
-        };
+        let last_stop = if n_stops < n_all { self.stops[n_stops] } else { t_end };
         // the stop after `i` passed (`last_stop` after the last of this call's)
         macro_rules! stop_at {
             ($i:expr) => {
@@ -545,7 +541,7 @@ where
                     // (the grid point on the stop first: one compare for a log at the step)
                     on_grid = stop_tau == grid;
                     if !on_grid {
-                        if !(dir * (grid - stop_tau) >= -1e-10 * fixed_h) {
+                        if !(dir * (grid - stop_tau) >= -super::GRID_TOL * fixed_h) {
                             let target = t0 + grid;
                             step_to!(target, grid, $src, $dst, $odd, $steps, 0);
                             grid_k += 1;
@@ -558,7 +554,7 @@ where
                             limit!(!$odd);
                             break $half;
                         }
-                        on_grid = (stop_tau - grid).abs() <= 1e-10 * fixed_h;
+                        on_grid = (stop_tau - grid).abs() <= super::GRID_TOL * fixed_h;
                     }
                 }
                 step_to!(stop, stop_tau, $src, $dst, $odd, $steps, 1);

@@ -455,7 +455,7 @@ where
             return (h, None);
         }
         let grid = grid_point(self.grid_k, self.dir * self.fixed_h);
-        let (target, target_tau) = if self.dir * (grid - stop_tau) >= -1e-10 * self.fixed_h {
+        let (target, target_tau) = if self.dir * (grid - stop_tau) >= -GRID_TOL * self.fixed_h {
             (stop, stop_tau)
         } else {
             (self.problem.t0 + grid, grid)
@@ -687,7 +687,7 @@ where
         } else {
             self.sub_h = None;
             let grid = grid_point(self.grid_k, self.dir * self.fixed_h);
-            if land.is_some() && (tau_new == grid || (tau_new - grid).abs() <= 1e-10 * self.fixed_h) {
+            if land.is_some() && (tau_new == grid || (tau_new - grid).abs() <= GRID_TOL * self.fixed_h) {
                 self.grid_k += 1;
             }
         }
@@ -791,6 +791,10 @@ fn check_inputs(u: &[f64], n_in: usize) -> Result<()> {
 pub(crate) fn brief(v: f64) -> String {
     crate::error::Brief(v).to_string()
 }
+
+/// How near a grid point (relative to the fixed step `h`) a stop counts as on it: the
+/// step to the stop is then the step to the grid point, and the grid moves on.
+pub(super) const GRID_TOL: f64 = 1e-10;
 
 /// The fixed-step grid's point `k + 1` from the start, `τ = (k + 1)·(±h)`: the count
 /// converted through `i64` (one `cvtsi2sd`; `u64 → f64` takes six instructions without

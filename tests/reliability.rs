@@ -273,7 +273,7 @@ fn streaming_matches_controls_bit_for_bit() {
                 if k > 1 {
                     it.set_inputs(&values[k - 1]).unwrap();
                 }
-                while it.t() != times[k] {
+                while !it.reached(times[k]) {
                     it.step_until(times[k]).unwrap();
                     b.push((it.t(), *it.x()));
                 }

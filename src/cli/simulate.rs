@@ -236,7 +236,7 @@ fn stream<const N: usize, S: System<Const<N>>, M: Method<Const<N>>>(
     let mut after = next.clone();
     loop {
         let t_next = next[0];
-        while it.t() != t_next {
+        while !it.reached(t_next) {
             match it.step_until(t_next) {
                 Ok(Some(t)) => out.row(t, it.x().as_slice())?,
                 Ok(None) => break,

@@ -122,13 +122,25 @@ where
             };
             if err.is_nan() || super::has_non_finite(&self.x_new) {
                 sync!();
-                return Err(self.non_finite(h));
+                (accepted, rejected) = (0, 0);
+                self.reject_non_finite(h, &mut failures)?;
+                (h_abs, last_rejected) = (self.h.abs(), self.last_rejected);
+                continue;
             }
             if err > 1.0 {
                 rejected += 1;
                 h_abs = ha * self.reject_factor(err);
                 last_rejected = true;
                 continue;
+            }
+            if let Some(fac) = self.crossing_factor(t, h) {
+                rejected += 1;
+                h_abs = ha * fac;
+                last_rejected = true;
+                continue;
+            }
+            if failures > 0 {
+                self.non_finite_trial = None;
             }
             failures = 0;
             accepted += 1;

@@ -68,6 +68,12 @@ where
     /// Why the last implicit attempt failed (current while the step's failure count is
     /// non-zero).
     last_failure: Option<Failure>,
+    /// Why the last trial step since the last accepted one was rejected as non-finite
+    /// (adaptive runs): the error reported if `h` then shrinks to nothing.
+    non_finite_trial: Option<Error>,
+    /// Work space of the crossing test ([`Integrator::crossing_factor`]): the crossing
+    /// state and `f` there, made at its first use.
+    probe: Option<(OVector<f64, D>, OVector<f64, D>)>,
     segment: Option<usize>,
     keep_dense: bool,
     /// Whether [`solve`](Self::solve) stores the dense segments (`Options::dense` only).
@@ -307,6 +313,8 @@ where
             h_max: opts.h_max,
             max_failures: opts.max_step_failures,
             last_failure: None,
+            non_finite_trial: None,
+            probe: None,
             segment,
             keep_dense,
             store_dense,
@@ -383,7 +391,7 @@ where
     /// let mut it = p.integrator(Exact::new(unicycle::flow), &Options::default()).unwrap();
     /// it.step_until(2.0).unwrap();
     /// it.set_inputs(&[0.0, 0.5]).unwrap(); // stop and turn in place
-    /// while it.t() != 3.0 {
+    /// while !it.reached(3.0) {
     ///     it.step_until(3.0).unwrap();
     /// }
     /// assert_eq!(*it.x(), vector![2.0, 0.0, 0.5]);
@@ -396,9 +404,30 @@ where
         Ok(())
     }
 
+    /// Whether the integrator stands exactly at `t_stop`: measured from the start,
+    /// `t − t₀ == t_stop − t₀`, the way the driver lands on a stop. Drive a stream with
+    /// `while !it.reached(t_stop) { it.step_until(t_stop)?; }`, not with `t() != t_stop`:
+    /// far from the origin (`t₀ = 10¹⁵`, where an `f64` time has a resolution of 0.125)
+    /// a step that ends short of `t_stop` can have a [`t`](Self::t) that rounds to it.
+    ///
+    /// ```
+    /// use reckon::{model, Problem, Options, methods::Bdf};
+    /// use nalgebra::vector;
+    /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
+    /// let p = Problem::new(&f, vector![1.0], (1e15, f64::INFINITY));
+    /// let mut it = p.integrator(Bdf::default(), &Options::default()).unwrap();
+    /// while !it.reached(1e15 + 2.0) {
+    ///     it.step_until(1e15 + 2.0).unwrap();
+    /// }
+    /// assert!((it.x()[0] - (-2.0f64).exp()).abs() < 1e-5);
+    /// ```
+    pub fn reached(&self, t_stop: f64) -> bool {
+        self.t == t_stop && self.tau == t_stop - self.problem.t0
+    }
+
     /// Take one accepted step that does not pass `t_stop`, landing on it exactly when it
-    /// reaches it (then `t() == t_stop`); `Ok(None)` once the end of the span has been
-    /// reached. `t_stop` must lie ahead in the direction of integration; one beyond
+    /// reaches it (then [`reached`](Self::reached)`(t_stop)`); `Ok(None)` once the end of
+    /// the span has been reached. `t_stop` must lie ahead in the direction of integration; one beyond
     /// `t_end` acts as `t_end`. This is how an open-ended span (`t_end = ±∞`) is driven.
     ///
     /// ```
@@ -407,7 +436,7 @@ where
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (1.7e12, f64::INFINITY)); // epoch milliseconds
     /// let mut it = p.integrator(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
-    /// while it.t() != 1.7e12 + 1.0 {
+    /// while !it.reached(1.7e12 + 1.0) {
     ///     it.step_until(1.7e12 + 1.0).unwrap();
     /// }
     /// assert!((it.x()[0] - (-1.0f64).exp()).abs() < 1e-9);
@@ -417,7 +446,8 @@ where
         if self.done {
             return Ok(None);
         }
-        if !t_stop.is_finite() || self.dir * (t_stop - self.t) <= 0.0 {
+        // ahead measured from t0, as the driver measures (t itself may already round to it)
+        if !t_stop.is_finite() || self.dir * ((t_stop - self.problem.t0) - self.tau) <= 0.0 {
             return Err(Error::invalid(
                 "t_stop",
                 format!(
@@ -514,10 +544,17 @@ where
             // explicit kernels evaluate f unchecked: every result is checked here, once
             // (by its sum, and component by component only when the sum is not finite)
             if err.is_nan() || has_non_finite(&self.x_new) {
-                return Err(self.non_finite(h));
+                self.reject_non_finite(h, &mut failures)?;
+                continue;
             }
             if self.adaptive && err > 1.0 {
                 self.reject(h, err);
+                continue;
+            }
+            if self.adaptive
+                && let Some(fac) = self.crossing_factor(self.t, h)
+            {
+                self.reject_by(h, fac);
                 continue;
             }
             let (t_new, tau_new) = landing.unwrap_or((self.problem.t0 + (self.tau + h), self.tau + h));
@@ -534,6 +571,7 @@ where
         // a fixed step at which I − hJ is singular has no implicit Euler map
         let singular_fixed = !self.adaptive && why == Failure::Singular;
         self.last_failure = Some(why);
+        self.non_finite_trial = None;
         if *failures > self.max_failures || singular_fixed {
             return Err(self.failure_error(why, h));
         }
@@ -569,6 +607,11 @@ where
     /// them, the last one recorded), that is the error: say where `f` broke.
     #[cold]
     fn underflow(&self, h: f64, failures: usize) -> Error {
+        if failures > 0
+            && let Some(e) = &self.non_finite_trial
+        {
+            return e.clone();
+        }
         match self.last_failure {
             Some(why @ Failure::NonFinite { .. }) if failures > 0 => self.failure_error(why, h),
             _ => Error::StepSizeUnderflow { t: self.t, h },
@@ -587,9 +630,96 @@ where
     /// The error estimate `err > 1` rejects the step: shrink it.
     #[inline]
     fn reject(&mut self, h: f64, err: f64) {
+        let fac = self.reject_factor(err);
+        self.reject_by(h, fac);
+    }
+
+    /// Reject the step `h` and retry with `|h|·fac`.
+    #[inline]
+    fn reject_by(&mut self, h: f64, fac: f64) {
         self.f.stats.rejected += 1;
-        self.h = h.abs() * self.reject_factor(err);
+        self.h = h.abs() * fac;
         self.last_rejected = true;
+    }
+
+    /// The step `h` from `(t, x)` gave a non-finite `x_new` or error estimate. With a
+    /// fixed step, or when `f` is already non-finite at `(t, x)` (the model itself is
+    /// broken there, and no smaller step helps), that is the typed error. An adaptive
+    /// run rejects the trial and retries with [`NON_FINITE_FACTOR`] of the step, like a
+    /// failed error test: a trial state that overflowed says only that the step was far
+    /// too long. Should `h` then shrink to nothing, the error is the diagnosis of the
+    /// last non-finite trial (see [`underflow`](Self::underflow)).
+    #[cold]
+    fn reject_non_finite(&mut self, h: f64, failures: &mut usize) -> Result<()> {
+        if self.f.fault.is_some() || !self.adaptive {
+            return Err(self.non_finite(h));
+        }
+        let e = self.non_finite(h);
+        let at_start = matches!(e, Error::NonFinite { t, .. } if t == self.t);
+        if at_start || !matches!(e, Error::NonFinite { .. }) {
+            return Err(e);
+        }
+        *failures += 1;
+        self.non_finite_trial = Some(e);
+        self.reject_by(h, NON_FINITE_FACTOR);
+        Ok(())
+    }
+
+    /// The crossing test, after a step from `(t, x)` with `h` passed the error test: when
+    /// a component `i` changed sign (or left an exact zero) by more than
+    /// [`CROSSING_NOISE`] of its tolerance scale, `f_i` is evaluated on the face
+    /// `x_i = 0` next to the step: at the start (`x` with `x_i = 0`, at `t`) and where the
+    /// step's line crosses it (`x + θ(x_new − x)` with `x_i = 0`, at `t + θh`), for the
+    /// first such component. A solution cannot leave through a face where `f_i` points
+    /// back, so if it does at either point the step is rejected and retried with
+    /// `h·clamp(0.9θ, 0.1, 0.5)`: `Some(factor)`. Both points, because a component slaved
+    /// to the crossing one (Robertson's quasi-steady `y₂ ≈ 4·10⁻⁶·y₁`) crosses with it,
+    /// and on the line it is already on the wrong side where `y₁` crosses, while at the
+    /// start it says `f₁ = 10⁴·y₂·y₃ > 0`. A false rejection (a legitimate crossing whose
+    /// step also spans a turn) only shortens the step until it no longer spans both.
+    ///
+    /// Why: at a loose tolerance a component decaying toward zero (a concentration) may
+    /// be stepped past it by an error within `atol`, and past zero the model may have no
+    /// stable solution at all. Robertson's `y₁` at `t ≈ 2·10⁹` with `atol = 10⁻⁶` went
+    /// to −1.6·10⁻⁶, and from there the exact flow of the model itself runs off to
+    /// `y₁ = −4.65·10⁷` by `t = 10¹¹`, every step within tolerance (scipy's BDF, Radau
+    /// and LSODA do the same at some of `rtol` 10⁻¹ … 10⁻³). Nothing is clamped: the
+    /// step is only retried shorter, and accepted once it does not cross or the
+    /// crossing agrees with `f`. One or two extra `f` calls per step that crosses.
+    fn crossing_factor(&mut self, t: f64, h: f64) -> Option<f64> {
+        let mut first: Option<(usize, f64)> = None;
+        for i in 0..self.x.len() {
+            let (a, b) = (self.x[i], self.x_new[i]);
+            let crossed = a * b < 0.0 || (a == 0.0 && b != 0.0);
+            if crossed && b.abs() > CROSSING_NOISE * self.w.scale(i, b) {
+                let theta = a / (a - b);
+                if first.is_none_or(|(_, th)| theta < th) {
+                    first = Some((i, theta));
+                }
+            }
+        }
+        let (i, theta) = first?;
+        let moved = self.x_new[i] - self.x[i];
+        let fac = (0.9 * theta).clamp(0.1, 0.5);
+        let (xs, fs) = self.probe.get_or_insert_with(|| (self.x.clone(), self.x.clone()));
+        // where the step starts, component i moved to zero
+        xs.copy_from(&self.x);
+        xs[i] = 0.0;
+        self.f.rhs(t, xs, fs).ok()?;
+        if fs[i] * moved < 0.0 {
+            return Some(fac);
+        }
+        if theta == 0.0 {
+            return None;
+        }
+        // where the step's line crosses zero
+        xs.copy_from(&self.x_new);
+        *xs -= &self.x;
+        *xs *= theta;
+        *xs += &self.x;
+        xs[i] = 0.0;
+        self.f.rhs(t + theta * h, xs, fs).ok()?;
+        (fs[i] * moved < 0.0).then_some(fac)
     }
 
     /// The factor that shrinks a step rejected with estimate `err > 1`.
@@ -661,6 +791,7 @@ where
 
     fn accept(&mut self, h: f64, err: f64, land: Option<f64>, mut t_new: f64, tau_new: f64) -> Result<()> {
         self.f.stats.accepted += 1;
+        self.non_finite_trial = None;
         if self.adaptive {
             self.check_stiffness(h, t_new);
         }
@@ -795,6 +926,16 @@ pub(crate) fn brief(v: f64) -> String {
 /// How near a grid point (relative to the fixed step `h`) a stop counts as on it: the
 /// step to the stop is then the step to the grid point, and the grid moves on.
 pub(super) const GRID_TOL: f64 = 1e-10;
+
+/// The step factor after a trial step that came out non-finite in an adaptive run
+/// (the smallest factor of the error-test rejection, 0.2, would often retry into the same
+/// overflow; a quarter is CVODE's factor after repeated failures).
+pub const NON_FINITE_FACTOR: f64 = 0.25;
+
+/// A sign change of a component by less than this fraction of its tolerance scale
+/// `atol + rtol·|x|` is rounding noise about zero, not a crossing
+/// ([`Integrator::crossing_factor`] does not test it).
+pub const CROSSING_NOISE: f64 = 1e-3;
 
 /// The fixed-step grid's point `k + 1` from the start, `τ = (k + 1)·(±h)`: the count
 /// converted through `i64` (one `cvtsi2sd`; `u64 → f64` takes six instructions without

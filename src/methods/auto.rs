@@ -11,9 +11,26 @@ use crate::system::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
 
-/// Consecutive stiff verdicts (`h·λ > 3.25`, DOPRI5's test on every step) before
-/// switching to BDF.
+/// A DOPRI5 step with `|h·λ|` above this is stiff for [`Auto`]: within 40 % of the real
+/// boundary of DOPRI5's stability region (3.31), where `dopri5.f` uses 3.25. Why lower:
+/// at a loose tolerance the stiff components' own error keeps the step below the
+/// boundary (Robertson at `rtol` 0.1: `h·λ` ≈ 2.4 for 10⁵ steps, 10⁶ `f` calls where BDF
+/// needs 400), which is stiffness all the same: the step is set by λ, not by the smooth
+/// solution. A non-stiff problem whose accurate step comes this close to the boundary
+/// costs at most a visit to BDF, which hands back after [`TO_NON_STIFF_STEPS`].
+pub const STIFF_H_LAMBDA: f64 = 2.0;
+/// Stiff verdicts (`h·λ >` [`STIFF_H_LAMBDA`], DOPRI5's test on every step) before switching to BDF,
+/// counted as `dopri5.f` counts them: a run of [`STIFF_RESET`] non-stiff verdicts in a
+/// row starts the count again, single ones do not.
 pub const TO_STIFF_STEPS: u32 = 15;
+/// Non-stiff verdicts in a row that clear the count of stiff ones (`dopri5.f`'s 6).
+///
+/// Why not 15 stiff verdicts in a row: at the edge of its stability region DOPRI5's
+/// step oscillates (a long step, a rejection, a short one), and the short step's
+/// verdict is non-stiff. Counted in a row, Van der Pol μ = 1000 at `rtol` 3e-3 and HIRES
+/// at `rtol` 0.1 never switched: the first ran into the step limit at 10⁵ DOPRI5 steps,
+/// the second into an instability that its loose tolerance let grow to 10¹⁰.
+pub const STIFF_RESET: u32 = 6;
 /// Consecutive non-stiff verdicts (`h·‖J‖∞ < NON_STIFF_H_NORM`) before switching back.
 pub const TO_NON_STIFF_STEPS: u32 = 15;
 /// BDF's step is one DOPRI5 could take stably when `h·‖J‖∞` is below this: `‖J‖∞`
@@ -30,8 +47,9 @@ enum Mode {
 /// Auto-switching: [`Dopri5`] while the problem is non-stiff, [`Bdf`] while it is stiff.
 ///
 /// **To BDF.** After every accepted DOPRI5 step, Hairer's estimate
-/// `h·λ ≈ |h|·‖k₇ − k₆‖/‖x₁ − y₆‖` is taken; [`TO_STIFF_STEPS`] consecutive values above
-/// 3.25 (the step is pinned to the edge of DOPRI5's stability region) switch to BDF,
+/// `h·λ ≈ |h|·‖k₇ − k₆‖/‖x₁ − y₆‖` is taken; [`TO_STIFF_STEPS`] values above
+/// [`STIFF_H_LAMBDA`] (the step is set by the edge of DOPRI5's stability region), not interrupted by
+/// [`STIFF_RESET`] values below it in a row, switch to BDF,
 /// which restarts at order 1 from the current state with the current step.
 ///
 /// **Back to DOPRI5.** After every accepted BDF step, `h·‖J‖∞` with BDF's Newton
@@ -64,8 +82,10 @@ where
     /// The stiff method.
     pub implicit: Bdf<D>,
     mode: Mode,
-    /// Consecutive verdicts for the other method.
+    /// Verdicts for the other method (consecutive ones, toward DOPRI5).
     streak: u32,
+    /// Consecutive verdicts against switching to BDF (see [`STIFF_RESET`]).
+    quiet: u32,
     /// The verdict of the step just attempted (`true`: it speaks for switching).
     verdict: bool,
     switched: Option<&'static str>,
@@ -83,6 +103,7 @@ where
             implicit: Bdf::default(),
             mode: Mode::Explicit,
             streak: 0,
+            quiet: 0,
             verdict: false,
             switched: None,
             fresh: false,
@@ -127,6 +148,7 @@ where
         self.implicit.reset();
         self.mode = Mode::Explicit;
         self.streak = 0;
+        self.quiet = 0;
         Ok(())
     }
     fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
@@ -145,7 +167,7 @@ where
         match self.mode {
             Mode::Explicit => {
                 let out = self.explicit.step(f, t, x, h, x_new, w, adaptive)?;
-                self.verdict = self.explicit.stiffness(h, x_new).is_some_and(|hl| hl > 3.25);
+                self.verdict = self.explicit.stiffness(h, x_new).is_some_and(|hl| hl > STIFF_H_LAMBDA);
                 Ok(out)
             }
             Mode::Implicit => {
@@ -163,13 +185,24 @@ where
             Mode::Explicit => self.explicit.accept(),
             Mode::Implicit => self.implicit.accept(),
         }
-        self.streak = if self.verdict { self.streak + 1 } else { 0 };
+        if self.verdict {
+            self.streak += 1;
+            self.quiet = 0;
+        } else {
+            self.quiet += 1;
+            // toward BDF a run of STIFF_RESET non-stiff verdicts clears the count; toward
+            // DOPRI5 a single stiff one does (switching back too early is the risky way)
+            if self.mode == Mode::Implicit || self.quiet >= STIFF_RESET {
+                self.streak = 0;
+            }
+        }
         let (limit, to) = match self.mode {
             Mode::Explicit => (TO_STIFF_STEPS, Mode::Implicit),
             Mode::Implicit => (TO_NON_STIFF_STEPS, Mode::Explicit),
         };
         if self.streak >= limit {
             self.streak = 0;
+            self.quiet = 0;
             self.mode = to;
             self.fresh = true;
             match to {

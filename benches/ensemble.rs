@@ -47,8 +47,8 @@ fn bench(c: &mut Criterion) {
     let flow_layout = Layout::new(times.clone(), vec!["x".into(), "y".into(), "theta".into()], 3).unwrap();
     let opts = Options::default().dense(false).save(Save::At(times));
     let sys = unicycle::model();
-    let member_flow = |m: &reckon::ensemble::Member| {
-        let mut rng = m.rng();
+    let member_flow = |m: &mut reckon::ensemble::Member| {
+        let rng = m.rng();
         let t: Vec<f64> = (0..STEPS).map(|k| k as f64 * 0.01).collect();
         let u: Vec<Vec<f64>> = (0..STEPS)
             .map(|_| vec![0.5 + 0.05 * rng.random::<f64>(), 0.2 * (rng.random::<f64>() - 0.5)])

@@ -902,7 +902,10 @@ fn max_steps_per_interval() {
     let o = euler(&["--max-steps", "100"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(rows(&o.stdout).1.len(), 1 + 10 + 100 + 10);
-    fails_with(&euler(&["--max-steps", "0"]), "max_steps: must be at least 1");
+    fails_with(
+        &euler(&["--max-steps", "0"]),
+        "--max-steps must be a whole number from 1",
+    );
     assert!(
         euler(&["--max-steps", "0"]).stdout.is_empty(),
         "refused before any output"
@@ -1012,4 +1015,158 @@ fn jacobian_refuses_bad_arguments_with_one_line() {
         let err = String::from_utf8(out.stderr).unwrap();
         assert!(!err.trim().is_empty() && !err.contains("panicked"), "{args:?}: {err}");
     }
+}
+
+/// Issue 38.6 and 38.2: a negative or zero count reaches the flag's own check (not clap's
+/// "unexpected argument '-1'"), the right flag is blamed, and a problem too large to fit
+/// is refused with the limit.
+#[test]
+fn flags_get_their_own_messages_and_limits() {
+    let c = file("flags.csv", UNICYCLE);
+    let e = file("flags-enc.csv", "t,left,right\n0,0,0\n0.1,1,1\n");
+    let poses = file("flags-poses.csv", "t,x,y,theta\n0,0,0,0\n0.1,0,0,0\n");
+    let out = dir().join("flags-out");
+    let o = dir().join("flags-o");
+    let (out, o) = (p(&out), p(&o));
+    let geometry = ["--wheel-diameter", "0.1", "--wheel-separation", "0.4"];
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec![
+                "convergence",
+                "--problem",
+                "dahlquist",
+                "--out",
+                out,
+                "--steps",
+                "-1,0.1",
+            ],
+            "step must be positive and finite, got -1",
+        ),
+        (
+            vec![
+                "convergence",
+                "--problem",
+                "dahlquist",
+                "--out",
+                out,
+                "--max-steps",
+                "-1",
+            ],
+            "--max-steps must be a whole number from 1 to 1000000000, got -1",
+        ),
+        (
+            vec!["stiffness", "--problem", "dahlquist", "--out", out, "--max-steps", "-1"],
+            "--max-steps must be a whole number from 1 to 10000000, got -1",
+        ),
+        (
+            vec![
+                "work-precision",
+                "--problem",
+                "dahlquist",
+                "--out",
+                out,
+                "--tolerances",
+                "-1,1e-3",
+            ],
+            "tolerance must be positive and finite, got -1",
+        ),
+        (
+            vec![
+                "work-precision",
+                "--problem",
+                "dahlquist",
+                "--out",
+                out,
+                "--tolerances",
+                "1e-3",
+                "--runs",
+                "-1",
+            ],
+            "--runs must be a whole number from 1 to 1000, got -1",
+        ),
+        (
+            vec![
+                "simulate",
+                "--model",
+                "unicycle",
+                "--controls",
+                p(&c),
+                "--method",
+                "euler",
+                "--max-steps",
+                "-1",
+            ],
+            "--max-steps must be a whole number from 1",
+        ),
+        (
+            vec![
+                "simulate",
+                "--model",
+                "unicycle",
+                "--controls",
+                p(&c),
+                "--method",
+                "euler",
+                "--max-steps",
+                "0",
+            ],
+            "--max-steps must be a whole number from 1",
+        ),
+        (
+            [
+                &["odometry", "--encoders", p(&e)][..],
+                &geometry,
+                &["--pulses-per-rev", "1e-320"],
+            ]
+            .concat(),
+            "invalid pulses_per_rev: the distance per pulse",
+        ),
+        (
+            [
+                &["calibrate", "--encoders", p(&e), "--poses", p(&poses), "--out", o][..],
+                &geometry,
+                &["--pulses-per-rev", "1000", "--sigma-xy", "0"],
+            ]
+            .concat(),
+            "--sigma-xy must be finite and positive, got 0",
+        ),
+        (
+            [
+                &["calibrate", "--encoders", p(&e), "--poses", p(&poses), "--out", o][..],
+                &geometry,
+                &["--pulses-per-rev", "1000", "--sigma-theta", "-1"],
+            ]
+            .concat(),
+            "--sigma-theta must be finite and positive, got -1",
+        ),
+        (
+            vec!["jacobian", "--model", "bicycle", "--wheelbase", "-1"],
+            "--wheelbase must be finite and positive with 1/L finite",
+        ),
+        (
+            vec!["jacobian", "--model", "bicycle", "--wheelbase", "1e-320"],
+            "--wheelbase must be finite and positive with 1/L finite",
+        ),
+        (
+            vec!["jacobian", "--problem", "brusselator:5000000"],
+            "brusselator:N needs N from 1 to 500000 grid points",
+        ),
+        (
+            vec!["stiffness", "--problem", "brusselator:500001", "--out", out],
+            "brusselator:N needs N from 1 to 500000 grid points",
+        ),
+    ];
+    for (args, needle) in cases {
+        let o = reckon(&args);
+        fails_with(&o, needle);
+        assert!(o.stdout.is_empty(), "{args:?}");
+    }
+    // the smallest wheelbase whose inverse is finite is traced
+    let o = reckon(&["jacobian", "--model", "bicycle", "--wheelbase", "1e-300"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("∂θ̇/∂v = 9.999999999999999e299·tan(α)") && !text.contains("inf"),
+        "{text}"
+    );
 }

@@ -58,7 +58,7 @@ fn exact_sum_spans_the_whole_exponent_range() {
     // 0.1 − 0.7 + 0.6 of the stored doubles is −2⁻⁵⁵·… : a few units of 2⁻⁵⁶, not 0
     assert!(h != 0.0 && h.abs() < 1e-16 && l.abs() <= h.abs() * 2f64.powi(-52));
     // the sign-magnitude round trip
-    let back = ExactSum::from_stored(&z.to_stored());
+    let back = ExactSum::from_stored(&z.to_stored()).unwrap();
     assert_eq!(back, z);
     assert_eq!(back.value(), h + l);
     // products exactly: (1 + 2⁻³⁰)² = 1 + 2⁻²⁹ + 2⁻⁶⁰, its last bit lost by f64
@@ -259,7 +259,7 @@ fn statistics_are_the_same_bits_for_one_and_two_threads_and_for_merged_shards() 
 #[test]
 fn a_failing_member_is_reported_by_its_index_whatever_the_threads() {
     let layout = Layout::new(vec![0.0, 1.0], vec!["a".into(), "b".into()], 2).unwrap();
-    let member = |m: &reckon::ensemble::Member, rows: &mut [f64]| {
+    let member = |m: &mut reckon::ensemble::Member, rows: &mut [f64]| {
         if m.index == 517 || m.index == 90 {
             return Err(Error::invalid("model", "boom"));
         }
@@ -309,8 +309,8 @@ fn a_linear_systems_ensemble_has_the_propagated_mean_and_covariance() {
     let n = 4000u64;
     let stats = Ensemble::new(n, 2026)
         .solve(&layout, |m| {
-            let mut rng = m.rng();
-            let z = Vector2::new(StandardNormal.sample(&mut rng), StandardNormal.sample(&mut rng));
+            let rng = m.rng();
+            let z = Vector2::new(StandardNormal.sample(rng), StandardNormal.sample(rng));
             Problem::new(&f, m0 + l0 * z, (0.0, 5.0)).solve(Dopri5::default(), &opts)
         })
         .unwrap();
@@ -394,4 +394,138 @@ fn the_encoder_ensembles_error_matches_the_ekf_covariance() {
         let nees = stats.snapshots[2].moments.mean_nees(&(&p * scale)).unwrap() * n as f64;
         assert!((nees - outside) * (scale - 1.0) < 0.0, "{scale}: {nees} vs {outside}");
     }
+}
+
+/// A member's generator lives as long as the member: two draws written the natural way
+/// are the first two numbers of the member's stream (not the same number twice), so two
+/// uniform draws are uncorrelated; the statistics stay the same bits for any threads.
+#[test]
+fn a_members_draws_continue_one_stream_on_any_threads() {
+    let layout = Layout::new(vec![1.0], vec!["a".into(), "b".into()], 2).unwrap();
+    let member = |m: &mut reckon::ensemble::Member, row: &mut [f64]| {
+        let a: f64 = m.rng().random();
+        let b: f64 = m.rng().random();
+        let mut fresh = StdRng::seed_from_u64(member_seed(11, m.index));
+        let (x, y): (f64, f64) = (fresh.random(), fresh.random());
+        if (a, b) != (x, y) || a == b {
+            return Err(Error::invalid(
+                "draws",
+                format!("{a}, {b} against the stream's {x}, {y}"),
+            ));
+        }
+        row.copy_from_slice(&[a, b]);
+        Ok(())
+    };
+    let n = 4000u64;
+    let one = Ensemble::new(n, 11).threads(1).run(&layout, member).unwrap();
+    let three = Ensemble::new(n, 11).threads(3).run(&layout, member).unwrap();
+    assert_eq!(one, three);
+    let mut shards = Ensemble::new(n, 11)
+        .shard(Shard::new(1, 2).unwrap())
+        .threads(2)
+        .run(&layout, member)
+        .unwrap();
+    shards
+        .merge(
+            &Ensemble::new(n, 11)
+                .shard(Shard::new(0, 2).unwrap())
+                .run(&layout, member)
+                .unwrap(),
+        )
+        .unwrap();
+    assert_eq!(shards.snapshots, one.snapshots);
+    // U(0, 1) draws: variance 1/12 each; the same number twice would give cov = 1/12
+    let c = one.covariance(0);
+    assert!((c[(0, 0)] * 12.0 - 1.0).abs() < 0.1 && (c[(1, 1)] * 12.0 - 1.0).abs() < 0.1);
+    let se = (1.0 / 12.0) / (n as f64).sqrt();
+    assert!(
+        c[(0, 1)].abs() < 4.0 * se,
+        "cov {} (4 standard errors {})",
+        c[(0, 1)],
+        4.0 * se
+    );
+}
+
+/// Issue 38.1 through the library: statistics edited in memory or in JSON fail
+/// `validate`/`from_json` with the typed error naming the field, and `merge` refuses them
+/// (never a panic, never a partial answer presented as whole).
+#[test]
+fn statistics_that_break_an_invariant_are_typed_errors() {
+    let layout = Layout::new(vec![1.0, 2.0], vec!["a".into(), "b".into()], 1).unwrap();
+    let run = |k| {
+        Ensemble::new(10, 3)
+            .shard(Shard::new(k, 3).unwrap())
+            .run(&layout, |m, row| {
+                row.fill(m.index as f64);
+                Ok(())
+            })
+            .unwrap()
+    };
+    let (a, b) = (run(0), run(1));
+    let field = |e: Error| match e {
+        Error::InvalidInput {
+            what: "statistics",
+            reason,
+        } => reason,
+        e => panic!("{e}"),
+    };
+    let mut whole = a.clone();
+    whole.shards = vec![0, 1, 2];
+    assert_eq!(
+        field(whole.validate().unwrap_err()),
+        "snapshots[0].moments.n: 4 members counted, but shards [0, 1, 2] of 3 hold 10"
+    );
+    let mut m = b.clone();
+    assert!(matches!(
+        m.merge(&whole),
+        Err(Error::InvalidInput { what: "statistics", .. })
+    ));
+    assert_eq!(m, b, "a refused merge changes nothing");
+    let mut short = a.clone();
+    short.snapshots.pop();
+    assert_eq!(field(short.validate().unwrap_err()), "snapshots: 1 for 2 saved times");
+    let mut beyond = a.clone();
+    beyond.shards = vec![7];
+    assert_eq!(
+        field(beyond.validate().unwrap_err()),
+        "shards: 7 is not a shard of 3 (0 to 2)"
+    );
+    let mut none = a.clone();
+    none.shard_count = 0;
+    assert_eq!(field(none.validate().unwrap_err()), "shard_count: 0 (at least 1)");
+    // JSON: a moment of the wrong dimension, a limb window no f64 sum reaches
+    let text = serde_json::to_string(&a).unwrap();
+    let dim = text.replacen(r#""dim":1"#, r#""dim":2"#, 1);
+    let e = field(Statistics::from_json(&dim).unwrap_err());
+    assert!(
+        e.starts_with("snapshots[0].moments.s1: 1 sums for dimension 2 (need 2)"),
+        "{e}"
+    );
+    let far = text.replacen(r#""lo":"#, r#""lo":2147483647,"was":"#, 1);
+    let e = field(Statistics::from_json(&far).unwrap_err());
+    assert!(
+        e.starts_with("snapshots[0].moments.s1[0]: invalid exact sum: lo = 2147483647 with 1 limbs"),
+        "{e}"
+    );
+    assert!(serde_json::from_str::<Statistics>(&far).is_err());
+    // the valid ones still merge, and an empty shard round-trips (±∞ extremes as text)
+    let mut ab = a.clone();
+    ab.merge(&b).unwrap();
+    assert_eq!(ab.count(), 7);
+    let empty = Ensemble::new(2, 3)
+        .shard(Shard::new(2, 3).unwrap())
+        .run(&layout, |_, row| {
+            row.fill(1.0);
+            Ok(())
+        })
+        .unwrap();
+    let text = serde_json::to_string(&empty).unwrap();
+    assert!(text.contains(r#""min":["inf"],"max":["-inf"]"#), "{text}");
+    assert_eq!(Statistics::from_json(&text).unwrap(), empty);
+    // moments of different dimensions do not merge
+    let mut m1 = Moments::new(1);
+    assert!(matches!(
+        m1.merge(&Moments::new(2)),
+        Err(Error::InvalidInput { what: "moments", .. })
+    ));
 }

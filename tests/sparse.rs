@@ -41,7 +41,7 @@ fn dominant(n: usize, density: f64, seed: u64) -> (Pattern, Vec<f64>, DMatrix<f6
         .flat_map(|j| (0..n).map(move |i| (i, j)))
         .filter(|&(i, j)| a[(i, j)] != 0.0)
         .collect();
-    let p = Pattern::from_entries(n, &e);
+    let p = Pattern::from_entries(n, &e).unwrap();
     let v = p.entries().map(|(i, j)| a[(i, j)]).collect();
     (p, v, a)
 }
@@ -53,7 +53,7 @@ proptest! {
     fn sparse_lu_solves_like_dense(n in 1usize..80, density in 0.0f64..0.3, seed in any::<u64>()) {
         let (p, v, a) = dominant(n, density, seed);
         let mut lu = SparseLu::new(&p).unwrap();
-        prop_assert!(lu.factor(&v));
+        prop_assert_eq!(lu.factor(&v), Ok(true));
         let b = DVector::from_fn(n, |i, _| (i as f64 * 0.7).sin() + 0.5);
         let mut x = b.clone();
         lu.solve_in_place(x.as_mut_slice());
@@ -62,7 +62,7 @@ proptest! {
         prop_assert!(err < 1e-12, "n {n}: relative difference {err:e}");
         // and refactoring new values in the same pattern
         let v2: Vec<f64> = v.iter().map(|x| x * 1.5).collect();
-        prop_assert!(lu.factor(&v2));
+        prop_assert_eq!(lu.factor(&v2), Ok(true));
         let mut x2 = b.clone();
         lu.solve_in_place(x2.as_mut_slice());
         let err2 = (&x2 * 1.5 - &y).amax() / y.amax();
@@ -74,15 +74,15 @@ proptest! {
 #[test]
 fn singular_and_non_finite_fail() {
     // [[1, 2], [2, 4]]: rank 1
-    let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]);
+    let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]).unwrap();
     let mut lu = SparseLu::new(&p).unwrap();
-    assert!(!lu.factor(&[1.0, 2.0, 2.0, 4.0]));
-    assert!(!lu.factor(&[1.0, f64::NAN, 0.0, 1.0]));
-    assert!(lu.factor(&[1.0, 2.0, 0.0, 1.0]));
+    assert_eq!(lu.factor(&[1.0, 2.0, 2.0, 4.0]), Ok(false));
+    assert_eq!(lu.factor(&[1.0, f64::NAN, 0.0, 1.0]), Ok(false));
+    assert_eq!(lu.factor(&[1.0, 2.0, 0.0, 1.0]), Ok(true));
     // a structurally singular one: an empty row
-    let q = Pattern::from_entries(3, &[(0, 0), (0, 1), (2, 2), (0, 2)]);
+    let q = Pattern::from_entries(3, &[(0, 0), (0, 1), (2, 2), (0, 2)]).unwrap();
     let mut lu = SparseLu::new(&q).unwrap();
-    assert!(!lu.factor(&[1.0, 1.0, 1.0, 1.0]));
+    assert_eq!(lu.factor(&[1.0, 1.0, 1.0, 1.0]), Ok(false));
 }
 
 const N: usize = 500;
@@ -336,7 +336,10 @@ fn traced_model_takes_the_sparse_path() {
             }
         }
     }
-    assert_eq!(coloured.pattern(), &reckon::sparse::Pattern::from_entries(2 * nn, &e));
+    assert_eq!(
+        coloured.pattern(),
+        &reckon::sparse::Pattern::from_entries(2 * nn, &e).unwrap()
+    );
 }
 
 /// Greedy colouring of BRUSS 1-D's interleaved `(u_i, v_i)` pattern: 4 colours at every
@@ -555,4 +558,29 @@ fn the_compiled_jacobian_is_traced_once_per_size() {
     assert_eq!(a.last().1, b.last().1);
     let _ = solve(120);
     assert_eq!(f.traces(), 2, "another size traces again");
+}
+
+/// Issue 38: the public constructors refuse bad input with a typed error, not a panic.
+#[test]
+fn wrong_lengths_and_indices_are_typed_errors() {
+    let e = Pattern::from_entries(3, &[(0, 0), (1, 3)]).unwrap_err();
+    assert!(matches!(e, reckon::Error::InvalidInput { what: "pattern", .. }), "{e}");
+    assert!(e.to_string().contains("(1, 3) is outside the 3 × 3 matrix"), "{e}");
+    assert!(Pattern::from_entries(0, &[(0, 0)]).is_err());
+    let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]).unwrap();
+    let mut lu = SparseLu::new(&p).unwrap();
+    for bad in [&[][..], &[1.0, 2.0], &[1.0, 2.0, 3.0, 4.0]] {
+        let e = lu.factor(bad).unwrap_err();
+        assert!(matches!(e, reckon::Error::InvalidInput { what: "values", .. }), "{e}");
+        assert!(
+            e.to_string()
+                .contains(&format!("{} values for a pattern of 3 non-zeros", bad.len()))
+        );
+        assert!(!lu.is_factored());
+    }
+    // still usable after the refusals: [[2, 0], [1, 4]]·(1, 1) = (2, 5)
+    assert_eq!(lu.factor(&[2.0, 1.0, 4.0]), Ok(true));
+    let mut b = [2.0, 5.0];
+    lu.solve_in_place(&mut b);
+    assert_eq!(b, [1.0, 1.0]);
 }

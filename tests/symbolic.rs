@@ -114,7 +114,7 @@ fn brusselator_matches_num_dual_and_is_pentadiagonal() {
             e.extend([(u, u + 2), (v, v + 2)]);
         }
     }
-    assert_eq!(tr.pattern(), Pattern::from_entries(2 * n, &e));
+    assert_eq!(tr.pattern(), Pattern::from_entries(2 * n, &e).unwrap());
     // at 500 points: the 3 996 non-zeros of the published count
     assert_eq!(symbolic::trace(&brusselator(500), 1000).unwrap().pattern().nnz(), 3996);
 }
@@ -395,4 +395,27 @@ fn body3d_angle_derivatives_match_the_product_rule_by_hand() {
         assert!((v - want[i]).abs() < 1e-15, "row {i}: {v} against {}", want[i]);
         assert!(v.abs() > 0.1);
     }
+}
+
+/// Issue 38.5: a constant that folding makes non-finite (∂(v·tan α / L)/∂v = tan α / L
+/// with 1/L = ∞ for L = 1e-320) is refused like a non-finite constant of the body, not
+/// printed as `inf·tan(α)`.
+#[test]
+fn a_folded_non_finite_constant_is_refused() {
+    match symbolic::trace(&bicycle::model(1e-320), 3) {
+        Err(Error::Untraceable { reason, .. }) => {
+            assert!(reason.contains("folding its constants gives inf"), "{reason}")
+        }
+        Err(e) => panic!("expected Untraceable, got {e}"),
+        Ok(t) => panic!("traced: {}", t.text()),
+    }
+    let f = model!(|_t, x: [S; 1]| vector![x[0] / 1e-320]);
+    assert!(matches!(symbolic::trace(&f, 1), Err(Error::Untraceable { .. })));
+    // a small wheelbase whose inverse is finite still traces
+    let tr = symbolic::trace(&bicycle::model(1e-300), 3).unwrap();
+    assert!(
+        tr.text().contains("∂ẋ₂/∂u₀ = 9.999999999999999e299·tan(u₁)") && !tr.text().contains("inf"),
+        "{}",
+        tr.text()
+    );
 }

@@ -52,11 +52,11 @@ pub struct CalibrateArgs {
     /// The nominal geometry (the starting point).
     #[command(flatten)]
     pub geometry: super::odometry::Geometry,
-    /// Standard deviation of the poses' x and y (m), for lsq.
-    #[arg(long, default_value_t = 0.01)]
+    /// Standard deviation of the poses' x and y (m), for lsq; finite and positive.
+    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true)]
     pub sigma_xy: f64,
-    /// Standard deviation of the poses' heading (rad), for lsq.
-    #[arg(long, default_value_t = 0.01)]
+    /// Standard deviation of the poses' heading (rad), for lsq; finite and positive.
+    #[arg(long, default_value_t = 0.01, allow_hyphen_values = true)]
     pub sigma_theta: f64,
     /// Corrected odometry CSV (default: standard output; the parameters go to stderr then).
     #[arg(long)]
@@ -66,6 +66,11 @@ pub struct CalibrateArgs {
 /// Run the command.
 pub fn run(args: &CalibrateArgs) -> Result<(), Box<dyn Error>> {
     let robot = args.geometry.robot()?;
+    for (flag, v) in [("--sigma-xy", args.sigma_xy), ("--sigma-theta", args.sigma_theta)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(format!("{flag} must be finite and positive, got {}", num(v)).into());
+        }
+    }
     check_not_input(args.out.as_deref(), &args.encoders)?;
     check_not_input(args.out.as_deref(), &args.poses)?;
     let enc = read_table(&args.encoders, &["t", "left", "right"])?;

@@ -5,7 +5,7 @@
 use std::fmt;
 use std::fs::File;
 use std::io::{Read, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A problem with an input file, naming the line where it was found.
 #[derive(Debug)]
@@ -430,6 +430,47 @@ pub fn check_not_input(out: Option<&Path>, input: &Path) -> Result<(), String> {
             "--out {} is the input file {}: refusing to overwrite it",
             out.display(),
             input.display()
+        ));
+    }
+    Ok(())
+}
+
+/// Refuse two outputs that name one file (`--stats` and `--out`): the second would
+/// overwrite the first. Paths are compared after resolving their folders (the files need
+/// not exist yet) and, when both exist, by inode; `/dev/null` may be named twice.
+///
+/// ```
+/// use reckon::cli::csvio::check_distinct_outputs;
+/// use std::path::Path;
+/// let d = std::env::temp_dir();
+/// assert!(check_distinct_outputs(("--stats", &d.join("a.json")), ("--out", &d.join("a.csv"))).is_ok());
+/// let e = check_distinct_outputs(("--stats", &d.join("x.csv")), ("--out", &d.join(".").join("x.csv"))).unwrap_err();
+/// assert!(e.contains("--stats and --out"), "{e}");
+/// ```
+pub fn check_distinct_outputs(a: (&str, &Path), b: (&str, &Path)) -> Result<(), String> {
+    let resolve = |p: &Path| -> PathBuf {
+        if let Ok(c) = std::fs::canonicalize(p) {
+            return c;
+        }
+        let parent = match p.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        match (std::fs::canonicalize(&parent), p.file_name()) {
+            (Ok(d), Some(name)) => d.join(name),
+            _ => p.to_path_buf(),
+        }
+    };
+    let (ra, rb) = (resolve(a.1), resolve(b.1));
+    if ra == Path::new("/dev/null") && rb == ra {
+        return Ok(());
+    }
+    if ra == rb || same_inode(&ra, &rb) {
+        return Err(format!(
+            "{} and {} both name {}: each output needs its own file",
+            a.0,
+            b.0,
+            a.1.display()
         ));
     }
     Ok(())

@@ -2,9 +2,11 @@
 //! the odometry error's statistics per saved time; `--shard K/N` and `ensemble merge`
 //! spread one ensemble over machines and combine the parts exactly.
 
-use super::csvio::{InputError, RowWriter, check_not_input, num, read_table};
+use super::csvio::{InputError, RowWriter, check_distinct_outputs, check_not_input, num, read_table};
+use super::whole;
 use crate::ensemble::encoder::{COLUMNS, EncoderEnsemble};
 use crate::ensemble::{Ensemble, Shard, Statistics};
+use crate::error::Brief;
 use crate::reckoning::encoders::Update;
 use crate::reckoning::errors::{Command, EncoderErrors};
 use std::error::Error;
@@ -33,7 +35,15 @@ covariances, and quantiles of the radial error √(ex² + ey²) (relative accura
 Member i uses the seed splitmix64(seed + (i+1)·0x9E3779B97F4A7C15): the statistics are \
 the same bits for any number of threads and any split into shards. With --shard K/N only \
 members K, K+N, … run; write their --stats and combine the N files with `reckon ensemble \
-merge`, which gives exactly what one run of all members gives."
+merge`, which gives exactly what one run of all members gives. The summary's t are the \
+controls' own times. Statistics undefined for so few members (everything with none, \
+standard deviations and covariances with one) are empty cells, with a warning; statistics \
+that f64 cannot hold are an error, and nothing is written. A run is refused up front when \
+a member would drive more than 10⁹ samples or the run more than 10¹² (about 20 core-hours; \
+split it with --shard). `ensemble merge` checks every file against the invariants a run \
+keeps (shards below the shard count and each once, the members counted matching the \
+shards claimed, one snapshot per saved time, sums an f64 run can reach) and refuses a file \
+that breaks one, naming the file and the field."
 )]
 pub struct EnsembleCmd {
     #[command(subcommand)]
@@ -71,12 +81,12 @@ pub struct EnsembleArgs {
     /// Controls CSV: header t,v,omega (other columns are ignored; required without `merge`).
     #[arg(long)]
     pub controls: Option<PathBuf>,
-    /// Members in the whole ensemble (required without `merge`).
-    #[arg(long)]
-    pub members: Option<u64>,
-    /// Master seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    /// Members in the whole ensemble, at least 1 (required without `merge`).
+    #[arg(long, allow_hyphen_values = true)]
+    pub members: Option<i128>,
+    /// Master seed, 0 to 2⁶⁴ − 1.
+    #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
+    pub seed: i128,
     /// Wheel diameter in metres (the nominal geometry the odometry assumes; required
     /// without `merge`).
     #[arg(long, allow_hyphen_values = true)]
@@ -96,15 +106,15 @@ pub struct EnsembleArgs {
     /// Odometry update rule.
     #[arg(long, default_value = "exact", value_parser = ["midpoint", "exact", "euler"])]
     pub update: String,
-    /// Save every K-th row interval's end (default: at most 200 saved times).
-    #[arg(long)]
-    pub save_every: Option<usize>,
+    /// Save every K-th row interval's end, K ≥ 1 (default: at most 200 saved times).
+    #[arg(long, allow_hyphen_values = true)]
+    pub save_every: Option<i128>,
     /// Run only members K, K+N, K+2N, … (K from 0).
-    #[arg(long, value_name = "K/N")]
+    #[arg(long, value_name = "K/N", allow_hyphen_values = true)]
     pub shard: Option<String>,
-    /// Worker threads (default: one per core).
-    #[arg(long)]
-    pub threads: Option<usize>,
+    /// Worker threads, 1 to 1024 (default: one per core).
+    #[arg(long, allow_hyphen_values = true)]
+    pub threads: Option<i128>,
     /// Write the mergeable statistics (JSON) here.
     #[arg(long)]
     pub stats: Option<PathBuf>,
@@ -151,7 +161,9 @@ pub fn run(cmd: &EnsembleCmd) -> Result<(), Box<dyn Error>> {
     }
 }
 
-fn commands(path: &Path) -> Result<Vec<Command>, Box<dyn Error>> {
+/// The commands of a controls file and the time at the end of each (its next row's `t`,
+/// on the file's clock).
+fn commands(path: &Path) -> Result<(Vec<Command>, Vec<f64>), Box<dyn Error>> {
     let table = read_table(path, &["t", "v", "omega"])?;
     if let Some(e) = table.error {
         return Err(e.into());
@@ -162,6 +174,7 @@ fn commands(path: &Path) -> Result<Vec<Command>, Box<dyn Error>> {
         return Err(format!("{file}: at least two rows are needed (the last row's t is the end time)").into());
     }
     let mut out = Vec::with_capacity(rows.len() - 1);
+    let ends = rows[1..].iter().map(|(_, r)| r[0]).collect();
     for w in rows.windows(2) {
         let ((_, a), (line, b)) = (&w[0], &w[1]);
         if b[0].partial_cmp(&a[0]) != Some(std::cmp::Ordering::Greater) {
@@ -178,7 +191,7 @@ fn commands(path: &Path) -> Result<Vec<Command>, Box<dyn Error>> {
             duration: b[0] - a[0],
         });
     }
-    Ok(out)
+    Ok((out, ends))
 }
 
 /// FNV-1a of the bytes: identifies the controls file in the job description.
@@ -207,6 +220,16 @@ fn run_members(a: &EnsembleArgs) -> Result<(), Box<dyn Error>> {
         .map_or("--model", |(_, name)| name);
         return Err(missing(what).into());
     };
+    let members: u64 = whole("--members", members, 1..=i128::from(u64::MAX))?;
+    let seed: u64 = whole("--seed", a.seed, 0..=i128::from(u64::MAX))?;
+    let threads: Option<usize> = a
+        .threads
+        .map(|n| whole("--threads", n, 1..=crate::ensemble::MAX_THREADS as i128))
+        .transpose()?;
+    let save_every: Option<usize> = a
+        .save_every
+        .map(|n| whole("--save-every", n, 1..=usize::MAX as i128))
+        .transpose()?;
     let robot = crate::reckoning::encoders::DiffDrive::new(d, b, ppr)?;
     let update: Update = a.update.parse()?;
     let shard: Shard = match &a.shard {
@@ -216,7 +239,10 @@ fn run_members(a: &EnsembleArgs) -> Result<(), Box<dyn Error>> {
     for out in [&a.out, &a.stats].into_iter().flatten() {
         check_not_input(Some(out), controls)?;
     }
-    let cmds = commands(controls)?;
+    if let (Some(json), Some(out)) = (&a.stats, &a.out) {
+        check_distinct_outputs(("--stats", json), ("--out", out))?;
+    }
+    let (cmds, ends) = commands(controls)?;
     let e = &a.errors;
     let errors = EncoderErrors {
         left_scale: e.left_scale,
@@ -227,7 +253,7 @@ fn run_members(a: &EnsembleArgs) -> Result<(), Box<dyn Error>> {
         pulse_noise: e.pulse_noise,
         seed: 0,
     };
-    let every = a.save_every.unwrap_or(cmds.len().div_ceil(200)).max(1);
+    let every = save_every.unwrap_or(cmds.len().div_ceil(200).max(1));
     let mut drive = EncoderEnsemble::new(robot, errors, cmds, a.dt)?
         .spreads(e.diameter_sigma, e.wheelbase_sigma)?
         .save_every(every);
@@ -246,29 +272,58 @@ fn run_members(a: &EnsembleArgs) -> Result<(), Box<dyn Error>> {
         num(e.wheelbase_sigma),
         every
     );
-    let mut runner = Ensemble::new(members, a.seed)
+    // the work of this run, refused up front when it could not finish
+    let samples = drive.samples_per_member();
+    let work = shard.len(members) as f64 * samples;
+    if work > MAX_RUN_SAMPLES {
+        return Err(format!(
+            "--members {members}{} with --dt {}: {} members × {} encoder samples = {} samples in this run; at most {} (split the ensemble with --shard K/N, or take a longer --dt)",
+            if shard == Shard::ALL { String::new() } else { format!(" --shard {}/{}", shard.index, shard.count) },
+            Brief(a.dt),
+            shard.len(members),
+            Brief(samples),
+            Brief(work),
+            Brief(MAX_RUN_SAMPLES)
+        )
+        .into());
+    }
+    let mut runner = Ensemble::new(members, seed)
         .shard(shard)
         .progress(std::io::stderr().is_terminal())
         .job(job);
-    runner.threads = a.threads;
-    let layout = drive.layout();
+    runner.threads = threads;
+    // saved times on the controls' clock: the exact t of the rows that end saved intervals
+    let mut layout = drive.layout();
+    layout.times = (0..ends.len()).filter(|i| drive.saved(*i)).map(|i| ends[i]).collect();
     let stats = runner.run(&layout, |m, rows| drive.member(m, rows))?;
     write_outputs(&stats, a.stats.as_deref(), a.out.as_deref())
 }
 
 fn merge(m: &MergeArgs) -> Result<(), Box<dyn Error>> {
+    if let (Some(json), Some(out)) = (&m.stats, &m.out) {
+        check_distinct_outputs(("--stats", json), ("--out", out))?;
+    }
     let mut all: Option<Statistics> = None;
     for path in &m.shards {
         for out in [&m.out, &m.stats].into_iter().flatten() {
             check_not_input(Some(out), path)?;
         }
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let s: Statistics = serde_json::from_str(&text).map_err(|e| {
+        let s = Statistics::from_json(&text).map_err(|e| {
             format!(
-                "{}: not ensemble statistics (reckon ensemble --stats): {e}",
+                "{}: not ensemble statistics as `reckon ensemble --stats` writes them: {e}",
                 path.display()
             )
         })?;
+        if s.layout.names != COLUMNS || s.layout.moments != 3 {
+            return Err(format!(
+                "{}: statistics of columns {:?} ({} with moments), not those of `reckon ensemble` ({COLUMNS:?}, 3 with moments)",
+                path.display(),
+                s.layout.names,
+                s.layout.moments
+            )
+            .into());
+        }
         match &mut all {
             None => all = Some(s),
             Some(acc) => acc.merge(&s).map_err(|e| format!("{}: {e}", path.display()))?,
@@ -287,16 +342,60 @@ fn merge(m: &MergeArgs) -> Result<(), Box<dyn Error>> {
     write_outputs(&all, m.stats.as_deref(), m.out.as_deref())
 }
 
+/// Encoder samples one `reckon ensemble` run may drive in all (members of the shard ×
+/// samples per member): 10¹², about 20 core-hours at the 70 ns a sample takes (the
+/// README's 20 000 members × 4 000 samples in 5.6 s on one thread). More is refused
+/// before anything runs; shards split the work.
+pub const MAX_RUN_SAMPLES: f64 = 1e12;
+
 /// Quantiles of the radial error in the summary.
 const QUANTILES: [f64; 4] = [0.5, 0.9, 0.95, 0.99];
 
-fn write_outputs(stats: &Statistics, json: Option<&Path>, out: Option<&Path>) -> Result<(), Box<dyn Error>> {
-    if let Some(p) = json {
-        let text = serde_json::to_string(stats)?;
-        std::fs::write(p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+/// One summary row: `t` and the statistics (`None`: undefined).
+type SummaryRow = (f64, Vec<Option<f64>>);
+
+/// The summary's cells at each saved time: `t`, then [`header`]'s statistics; `None` for
+/// what is undefined (every statistic with no member, the standard deviations and
+/// covariances with one). A defined statistic that is not finite (the errors' squares
+/// beyond the range of f64) is an error naming the column and the time.
+fn summary(stats: &Statistics) -> Result<Vec<SummaryRow>, String> {
+    let names = header();
+    let radial = COLUMNS.len() - 1;
+    let mut rows = Vec::with_capacity(stats.layout.times.len());
+    for (k, t) in stats.layout.times.iter().enumerate() {
+        let n = stats.snapshots[k].moments.count();
+        let (mean, cov) = (stats.mean(k), stats.covariance(k));
+        let mut row = vec![Some(n as f64)];
+        let some = |v: f64, ok: bool| ok.then_some(v);
+        row.extend(mean.iter().map(|v| some(*v, n >= 1)));
+        row.extend((0..3).map(|i| some(cov[(i, i)].sqrt(), n >= 2)));
+        row.extend([cov[(0, 1)], cov[(0, 2)], cov[(1, 2)]].map(|v| some(v, n >= 2)));
+        row.extend(QUANTILES.iter().map(|q| stats.quantile(k, radial, *q)));
+        if let Some((i, v)) = row
+            .iter()
+            .enumerate()
+            .find_map(|(i, v)| v.filter(|v| !v.is_finite()).map(|v| (i, v)))
+        {
+            let m = &stats.snapshots[k].moments;
+            let largest = (0..3)
+                .map(|c| m.min()[c].abs().max(m.max()[c].abs()))
+                .fold(0.0, f64::max);
+            return Err(format!(
+                "{} at t = {} is {} (the errors reach {}: their squares overflow f64, so the statistics cannot be represented)",
+                names[i],
+                Brief(*t),
+                Brief(v),
+                Brief(largest)
+            ));
+        }
+        rows.push((*t, row));
     }
-    let mut w = RowWriter::open(out)?;
-    let header: Vec<String> = [
+    Ok(rows)
+}
+
+/// The summary's columns after `t`.
+fn header() -> Vec<String> {
+    [
         "members",
         "mean_ex",
         "mean_ey",
@@ -313,21 +412,37 @@ fn write_outputs(stats: &Statistics, json: Option<&Path>, out: Option<&Path>) ->
             .map(|s| s.to_string()),
     )
     .chain(QUANTILES.iter().map(|q| format!("radial_p{}", (q * 100.0).round())))
-    .collect();
-    w.line(&format!("t,{}", header.join(",")))?;
-    let radial = COLUMNS.len() - 1;
-    for (k, t) in stats.layout.times.iter().enumerate() {
-        let (mean, cov) = (stats.mean(k), stats.covariance(k));
-        let mut row = vec![stats.snapshots[k].moments.count() as f64];
-        row.extend(mean.iter());
-        row.extend((0..3).map(|i| cov[(i, i)].sqrt()));
-        row.extend([cov[(0, 1)], cov[(0, 2)], cov[(1, 2)]]);
-        row.extend(
-            QUANTILES
-                .iter()
-                .map(|q| stats.quantile(k, radial, *q).unwrap_or(f64::NAN)),
+    .collect()
+}
+
+/// Write the mergeable statistics and the summary CSV. Nothing is written when a
+/// statistic cannot be represented; cells undefined for so few members are left empty,
+/// with a warning on standard error.
+fn write_outputs(stats: &Statistics, json: Option<&Path>, out: Option<&Path>) -> Result<(), Box<dyn Error>> {
+    let rows = summary(stats)?;
+    if let Some(p) = json {
+        let text = serde_json::to_string(stats)?;
+        std::fs::write(p, text).map_err(|e| format!("{}: {e}", p.display()))?;
+    }
+    let n = stats.count();
+    if n < 2 {
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
+            "reckon: warning: {n} member{} counted: {} undefined for n < 2 (the cells are left empty)",
+            if n == 1 { "" } else { "s" },
+            if n == 0 {
+                "every statistic is"
+            } else {
+                "the standard deviations and covariances are"
+            }
         );
-        w.row(*t, &row)?;
+    }
+    let mut w = RowWriter::open(out)?;
+    w.line(&format!("t,{}", header().join(",")))?;
+    for (t, row) in rows {
+        let cells: Vec<String> = row.iter().map(|v| v.map(num).unwrap_or_default()).collect();
+        w.line(&format!("{},{}", num(t), cells.join(",")))?;
     }
     Ok(w.flush()?)
 }

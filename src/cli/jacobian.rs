@@ -29,11 +29,12 @@ pub struct JacobianArgs {
     #[arg(long)]
     pub model: Option<String>,
     /// Test problem: robertson, vdp (μ = 1000), orego, hires, lorenz, arenstorf,
-    /// stiff-cosine, rotation-decay, sin-u, or brusselator:N (N grid points, 2N states).
+    /// stiff-cosine, rotation-decay, sin-u, or brusselator:N (N from 1 to 500000 grid
+    /// points, 2N states).
     #[arg(long)]
     pub problem: Option<String>,
     /// Wheelbase of the bicycle (default 0.5) and car-like (default 2.5) models.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub wheelbase: Option<f64>,
     /// Output format.
     #[arg(long, value_enum, default_value = "text")]
@@ -45,8 +46,11 @@ fn traced(a: &JacobianArgs) -> Result<Traced, String> {
     let wheelbase = |default: f64| -> Result<f64, String> {
         match a.wheelbase {
             None => Ok(default),
-            Some(l) if l.is_finite() && l > 0.0 => Ok(l),
-            Some(l) => Err(format!("--wheelbase must be finite and positive, got {l}")),
+            Some(l) if l.is_finite() && l > 0.0 && (1.0 / l).is_finite() => Ok(l),
+            Some(l) => Err(format!(
+                "--wheelbase must be finite and positive with 1/L finite (L ≥ {:e}), got {l:e}",
+                1.0 / f64::MAX
+            )),
         }
     };
     if let Some(m) = &a.model {

@@ -17,6 +17,30 @@ pub mod studies;
 use clap::{Parser, Subcommand};
 use std::ffi::OsString;
 
+/// A whole-number flag's value, read by clap as `i128` (with `allow_hyphen_values`, so
+/// that `-1` reaches this check instead of being taken for a flag) and checked here
+/// against `range`: one line naming the flag and the range otherwise.
+///
+/// ```
+/// use reckon::cli::whole;
+/// assert_eq!(whole::<u64>("--members", 12, 1..=i128::from(u64::MAX)), Ok(12));
+/// let e = whole::<u64>("--members", -1, 1..=i128::from(u64::MAX)).unwrap_err();
+/// assert_eq!(e, "--members must be a whole number from 1 to 18446744073709551615, got -1");
+/// ```
+pub fn whole<T: TryFrom<i128>>(flag: &str, v: i128, range: std::ops::RangeInclusive<i128>) -> Result<T, String> {
+    let bad = || {
+        format!(
+            "{flag} must be a whole number from {} to {}, got {v}",
+            range.start(),
+            range.end()
+        )
+    };
+    if !range.contains(&v) {
+        return Err(bad());
+    }
+    T::try_from(v).map_err(|_| bad())
+}
+
 /// Integrate ordinary differential equations and dead-reckon vehicles.
 #[derive(Parser)]
 #[command(name = "reckon", version, about)]

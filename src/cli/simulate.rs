@@ -70,9 +70,9 @@ pub struct SimulateArgs {
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub x0: Option<Vec<f64>>,
     /// Largest number of step attempts between two consecutive control rows (so the
-    /// limit scales with the length of the log).
-    #[arg(long, default_value_t = 100_000)]
-    pub max_steps: usize,
+    /// limit scales with the length of the log), at least 1.
+    #[arg(long, default_value_t = 100_000, allow_hyphen_values = true)]
+    pub max_steps: i128,
     /// Output CSV (default: standard output); may not be the controls file.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -110,6 +110,7 @@ fn parse_params(model: ModelName, params: &[String]) -> Result<f64, Box<dyn Erro
 /// interval that fails to integrate) is the one reported.
 pub fn run(args: &SimulateArgs) -> Result<(), Box<dyn Error>> {
     let wheelbase = parse_params(args.model, &args.params)?;
+    super::whole::<usize>("--max-steps", args.max_steps, 1..=usize::MAX as i128)?;
     if let Some(dt) = args.dt
         && !(dt.is_finite() && dt > 0.0)
     {
@@ -195,7 +196,7 @@ where
         .rtol(args.rtol)
         .atol(args.atol)
         .dense(false)
-        .max_steps(args.max_steps);
+        .max_steps(usize::try_from(args.max_steps).unwrap_or(usize::MAX));
     // without --dt the fixed-step methods take one step per control interval
     let fixed = base.clone().fixed(args.dt.unwrap_or(f64::MAX));
     base.validate()?;

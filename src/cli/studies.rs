@@ -41,12 +41,15 @@ impl Write for Stdout {
     }
 }
 
+/// The largest `reckon convergence --max-steps`: 10⁹ steps per run.
+pub const MAX_CONVERGENCE_STEPS: i128 = 1_000_000_000;
+
 /// Arguments shared by the study commands.
 #[derive(Debug, clap::Args)]
 pub struct Common {
     /// Problem name (rotation-decay, lti, dahlquist, sin-u, stiff-cosine, arenstorf, lorenz,
     /// unicycle, bicycle, carlike, van-der-pol, robertson, orego, hires, brusselator, or
-    /// brusselator:N with N from 1 to 5000000 grid points, 2N states).
+    /// brusselator:N with N from 1 to 500000 grid points, 2N states).
     #[arg(long)]
     pub problem: String,
     /// Output folder for CSV and SVG files.
@@ -67,12 +70,12 @@ pub struct ConvergenceArgs {
     #[arg(long, value_delimiter = ',', default_value = "euler,implicit-euler,rk45")]
     pub methods: Vec<String>,
     /// Fixed step sizes, comma separated (default: five halvings suited to the problem).
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub steps: Option<Vec<f64>>,
-    /// Cap on the steps of one run: a step size that needs more over the problem's span
-    /// is refused before anything runs.
-    #[arg(long, default_value_t = crate::studies::convergence::DEFAULT_MAX_STEPS)]
-    pub max_steps: u64,
+    /// Cap on the steps of one run, 1 to 10⁹: a step size that needs more over the
+    /// problem's span is refused before anything runs.
+    #[arg(long, default_value_t = crate::studies::convergence::DEFAULT_MAX_STEPS as i128, allow_hyphen_values = true)]
+    pub max_steps: i128,
 }
 
 /// `reckon stiffness`.
@@ -81,15 +84,15 @@ pub struct StiffnessArgs {
     #[command(flatten)]
     pub common: Common,
     /// Relative tolerance of the adaptive runs.
-    #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1e-4, allow_hyphen_values = true)]
     pub rtol: f64,
     /// Absolute tolerance of the adaptive runs.
-    #[arg(long, default_value_t = 1e-7, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 1e-7, allow_hyphen_values = true)]
     pub atol: f64,
     /// Step limit per run, 1 to 10⁷ (RK45 on a stiff problem stops here, and says so;
     /// each run keeps its step-size history, so the limit bounds memory).
-    #[arg(long, default_value_t = 200_000)]
-    pub max_steps: usize,
+    #[arg(long, default_value_t = 200_000, allow_hyphen_values = true)]
+    pub max_steps: i128,
 }
 
 /// `reckon work-precision`.
@@ -102,14 +105,14 @@ pub struct WorkPrecisionArgs {
     pub methods: Vec<String>,
     /// Tolerances of the adaptive methods, comma separated: rtol, and atol = rtol (robertson:
     /// atol = 1e-4·rtol, the Test Set convention).
-    #[arg(long, value_delimiter = ',', required = true, allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', required = true, allow_hyphen_values = true)]
     pub tolerances: Vec<f64>,
     /// Fixed steps for explicit Euler, comma separated.
-    #[arg(long, value_delimiter = ',', allow_negative_numbers = true)]
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub steps: Option<Vec<f64>>,
     /// Timing repetitions (the fastest counts), 1 to 1000.
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u16).range(1..=1000))]
-    pub runs: u16,
+    #[arg(long, default_value_t = 3, allow_hyphen_values = true)]
+    pub runs: i128,
 }
 
 fn methods(names: &[String]) -> Res<Vec<MethodKind>> {
@@ -177,16 +180,14 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
     if let Some(steps) = &a.steps {
         positive("step", steps)?;
     }
-    if a.max_steps == 0 {
-        return Err("--max-steps must be at least 1".into());
-    }
+    let max_steps: u64 = super::whole("--max-steps", a.max_steps, 1..=MAX_CONVERGENCE_STEPS)?;
     let plan: Vec<(MethodKind, Vec<f64>)> = ms
         .iter()
         .map(|m| (*m, a.steps.clone().unwrap_or_else(|| p.default_steps(*m))))
         .collect();
     // a refused study writes no file
     for (m, steps) in &plan {
-        p.check_convergence(&[*m], steps, a.max_steps).map_err(|e| {
+        p.check_convergence(&[*m], steps, max_steps).map_err(|e| {
             let hint = if e.to_string().contains("cap of") {
                 "; raise --max-steps to run it"
             } else {
@@ -205,7 +206,7 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
     // does not stop the others; the first failure is reported after the files are written
     let mut failure: Option<String> = None;
     for (m, steps) in &plan {
-        match p.convergence(&[*m], steps, a.max_steps) {
+        match p.convergence(&[*m], steps, max_steps) {
             Ok(s) => {
                 study.rows.extend(s.rows);
                 study.fits.extend(s.fits);
@@ -359,13 +360,11 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
     let p = lookup(&a.common.problem)?;
     positive("rtol", &[a.rtol])?;
     positive("atol", &[a.atol])?;
-    if !(1..=10_000_000).contains(&a.max_steps) {
-        return Err(format!("--max-steps must be between 1 and 10000000, got {}", a.max_steps).into());
-    }
+    let max_steps: usize = super::whole("--max-steps", a.max_steps, 1..=10_000_000)?;
     prepare(&a.common.out)?;
     let dir = &a.common.out;
     let pb = progress(3, "stiffness");
-    let hist = p.histories(a.rtol, a.atol, a.max_steps);
+    let hist = p.histories(a.rtol, a.atol, max_steps);
     pb.inc(1);
     // the implicit-Euler history ran at the same tolerances: its step count
     let ie_steps = hist
@@ -518,6 +517,7 @@ pub fn work_precision_plot(
 
 pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
     let ms = methods(&a.methods)?;
+    let runs: usize = super::whole("--runs", a.runs, 1..=1000)?;
     positive("tolerance", &a.tolerances)?;
     let steps = a.steps.clone().unwrap_or_else(|| vec![1e-2, 1e-3, 1e-4]);
     positive("step", &steps)?;
@@ -542,7 +542,7 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
             } else {
                 (&a.tolerances[k..=k], &steps[..0])
             };
-            match p.work_precision(&[*m], tols, hs, a.runs as usize) {
+            match p.work_precision(&[*m], tols, hs, runs) {
                 Ok(w) => pts.extend(w),
                 Err(e) => {
                     let setting = if *m == MethodKind::Euler { hs[0] } else { tols[0] };

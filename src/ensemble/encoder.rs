@@ -3,7 +3,7 @@
 //! the odometry error `odometry − truth` at the end of command segments.
 
 use super::{Layout, Member};
-use crate::error::{Error, Result};
+use crate::error::{Brief, Error, Result};
 use crate::reckoning::encoders::{DiffDrive, Update, advance};
 use crate::reckoning::errors::{Command, EncoderErrors, Simulator, samples_of};
 use nalgebra::{Matrix3, SVector, Vector3};
@@ -13,6 +13,11 @@ use rand_distr::{Distribution, StandardNormal};
 /// Column names of [`EncoderEnsemble::layout`]: the error in x, y and heading (the
 /// moments), then the horizontal error's length `√(e_x² + e_y²)`.
 pub const COLUMNS: [&str; 4] = ["ex", "ey", "etheta", "radial"];
+
+/// The most encoder samples one member may drive: 10⁹, about 70 s of one core. A
+/// sample period that needs more over the commands is refused by
+/// [`EncoderEnsemble::new`].
+pub const MAX_SAMPLES_PER_MEMBER: f64 = 1e9;
 
 /// Noisy encoder robots (see the [module docs](self)). Each member draws its own wheel
 /// diameters `left_scale·(1 + σ_d·N)`, `right_scale·(1 + σ_d·N)` and wheelbase
@@ -99,6 +104,19 @@ impl EncoderEnsemble {
                 ));
             }
         }
+        let samples: f64 = commands.iter().map(|c| (c.duration / dt).round().max(1.0)).sum();
+        if samples > MAX_SAMPLES_PER_MEMBER {
+            return Err(Error::invalid(
+                "dt",
+                format!(
+                    "{}: the commands ({} s) would take {} encoder samples per member; at most {}",
+                    Brief(dt),
+                    Brief(commands.iter().map(|c| c.duration).sum::<f64>()),
+                    Brief(samples),
+                    Brief(MAX_SAMPLES_PER_MEMBER)
+                ),
+            ));
+        }
         Ok(EncoderEnsemble {
             robot,
             errors,
@@ -109,6 +127,24 @@ impl EncoderEnsemble {
             update: Update::Exact,
             save_every: 1,
         })
+    }
+
+    /// Encoder samples each member drives: `Σ max(1, round(duration/dt))` over the
+    /// commands (at most [`MAX_SAMPLES_PER_MEMBER`]).
+    ///
+    /// ```
+    /// use reckon::ensemble::encoder::EncoderEnsemble;
+    /// use reckon::reckoning::{encoders::DiffDrive, errors::{Command, EncoderErrors}};
+    /// let robot = DiffDrive::new(0.1, 0.5, 1000.0).unwrap();
+    /// let c = |duration| Command { v: 1.0, omega: 0.0, duration };
+    /// let drive = EncoderEnsemble::new(robot, EncoderErrors::default(), vec![c(10.0), c(0.001)], 0.01).unwrap();
+    /// assert_eq!(drive.samples_per_member(), 1001.0);
+    /// // a sample period that would never finish is refused, with the limit
+    /// let e = EncoderEnsemble::new(robot, EncoderErrors::default(), vec![c(20.0)], 1e-300).unwrap_err();
+    /// assert!(e.to_string().contains("at most 1e9"), "{e}");
+    /// ```
+    pub fn samples_per_member(&self) -> f64 {
+        self.commands.iter().map(|c| samples_of(c, self.dt).0 as f64).sum()
     }
 
     /// With between-member spreads of the wheel diameters and the wheelbase (relative σ).
@@ -132,8 +168,8 @@ impl EncoderEnsemble {
         self
     }
 
-    /// Whether the end of command `i` is saved.
-    fn saved(&self, i: usize) -> bool {
+    /// Whether the end of command `i` is saved (every `save_every`-th, and the last).
+    pub fn saved(&self, i: usize) -> bool {
         (i + 1).is_multiple_of(self.save_every.max(1)) || i + 1 == self.commands.len()
     }
 
@@ -157,16 +193,16 @@ impl EncoderEnsemble {
 
     /// Run member `m`, writing its error rows at the times of [`layout`](Self::layout)
     /// into `rows`.
-    pub fn member(&self, m: &Member, rows: &mut [f64]) -> Result<()> {
-        let mut rng = m.rng();
+    pub fn member(&self, m: &mut Member, rows: &mut [f64]) -> Result<()> {
+        let rng = m.rng();
         let mut e = self.errors;
         if self.diameter_sigma > 0.0 {
-            let (a, b): (f64, f64) = (StandardNormal.sample(&mut rng), StandardNormal.sample(&mut rng));
+            let (a, b): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
             e.left_scale *= 1.0 + self.diameter_sigma * a;
             e.right_scale *= 1.0 + self.diameter_sigma * b;
         }
         if self.wheelbase_sigma > 0.0 {
-            let a: f64 = StandardNormal.sample(&mut rng);
+            let a: f64 = StandardNormal.sample(rng);
             e.wheelbase_scale *= 1.0 + self.wheelbase_sigma * a;
         }
         let mut sim = Simulator::new(&self.robot, &e, Vector3::zeros(), rng);

@@ -6,6 +6,7 @@
 //! machines. Products are added exactly too ([`ExactSum::add_product`]: `a·b = p + e`
 //! with `e = fma(a, b, −p)`), which makes second moments exact.
 
+use crate::error::{Error, Result};
 use serde::{Deserialize, Serialize};
 
 /// Bits per limb.
@@ -13,6 +14,10 @@ const BITS: u32 = 32;
 /// Limb `i` weighs `2^(32·(i + BASE))`: every finite f64 (the smallest subnormal is
 /// 2⁻¹⁰⁷⁴) is an integer multiple of `2^(32·BASE) = 2⁻¹¹²⁰`.
 const BASE: i32 = -35;
+/// Limbs an exact sum of f64 terms can occupy: `0..LIMBS`. The lowest bit of the
+/// smallest subnormal is in limb 1; a sum of at most 2⁶⁵ terms (products add two each)
+/// below 2¹⁰²⁴ is below 2¹⁰⁸⁹ = 2^(32·68.03 − 1120), so its top limb is at most 69.
+pub const LIMBS: i32 = 70;
 /// Adds between two carry normalisations: each add moves a limb by less than 2³², so a
 /// limb stays below 2⁶¹ + 2³² and the sum of two accumulators' limbs ([`ExactSum::merge`])
 /// cannot overflow an `i64`.
@@ -35,7 +40,7 @@ const HEADROOM: u32 = 1 << 29;
 /// assert_eq!(t.value(), 2f64.powi(-55)); // 0.1 + 0.2 − 0.3 of the stored doubles, exactly
 /// ```
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
-#[serde(into = "StoredSum", from = "StoredSum")]
+#[serde(into = "StoredSum", try_from = "StoredSum")]
 pub struct ExactSum {
     /// Index (in limbs of 32 bits, from `BASE`) of `limbs[0]`.
     lo: i32,
@@ -225,15 +230,49 @@ impl ExactSum {
         }
     }
 
-    /// The sum a [`StoredSum`] describes.
-    pub fn from_stored(s: &StoredSum) -> ExactSum {
+    /// The sum a [`StoredSum`] describes; refused ([`Error::InvalidInput`] naming the
+    /// field) unless its limbs lie in the window a sum of `f64` terms can reach, limbs
+    /// `0..`[`LIMBS`] (a stored `lo` far outside would otherwise grow the accumulator to
+    /// gigabytes at the next merge).
+    ///
+    /// ```
+    /// use reckon::ensemble::exact::{ExactSum, StoredSum};
+    /// let mut s = ExactSum::default();
+    /// s.add(-2.5);
+    /// assert_eq!(ExactSum::from_stored(&s.to_stored()).unwrap().value(), -2.5);
+    /// let far = StoredSum { negative: false, lo: i32::MAX, limbs: vec![1], special: [0; 3] };
+    /// assert!(ExactSum::from_stored(&far).unwrap_err().to_string().contains("lo"));
+    /// ```
+    pub fn from_stored(s: &StoredSum) -> Result<ExactSum> {
+        let top = i64::from(s.lo) + s.limbs.len() as i64;
+        if s.lo < 0 || top > i64::from(LIMBS) {
+            return Err(Error::invalid(
+                "exact sum",
+                format!(
+                    "lo = {} with {} limbs: a sum of f64 values occupies limbs 0 to {}",
+                    s.lo,
+                    s.limbs.len(),
+                    LIMBS - 1
+                ),
+            ));
+        }
         let sign = if s.negative { -1 } else { 1 };
-        ExactSum {
+        Ok(ExactSum {
             lo: s.lo,
             limbs: s.limbs.iter().map(|v| sign * *v as i64).collect(),
             pending: 1,
             special: s.special,
-        }
+        })
+    }
+
+    /// Numbers of `+∞`, `−∞` and NaN terms added.
+    pub fn special(&self) -> [u32; 3] {
+        self.special
+    }
+
+    /// Whether the sum is exactly zero with no special terms.
+    pub fn is_zero(&self) -> bool {
+        self.special == [0; 3] && self.canonical().2.is_empty()
     }
 }
 
@@ -243,8 +282,9 @@ impl From<ExactSum> for StoredSum {
     }
 }
 
-impl From<StoredSum> for ExactSum {
-    fn from(s: StoredSum) -> ExactSum {
+impl TryFrom<StoredSum> for ExactSum {
+    type Error = Error;
+    fn try_from(s: StoredSum) -> Result<ExactSum> {
         ExactSum::from_stored(&s)
     }
 }

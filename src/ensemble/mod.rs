@@ -65,19 +65,45 @@ pub fn member_seed(master: u64, index: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// One member: its index in the whole ensemble and its seed ([`member_seed`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// One member: its index in the whole ensemble, its seed ([`member_seed`]) and its
+/// random generator, which lives as long as the member: every draw of the member comes
+/// from one stream, so two draws are two different random numbers.
+///
+/// ```
+/// use reckon::ensemble::{Member, member_seed};
+/// use rand::Rng;
+/// let mut m = Member::new(3, member_seed(7, 3));
+/// let a: f64 = m.rng().random();
+/// let b: f64 = m.rng().random();
+/// assert_ne!(a, b); // the second draw continues the stream
+/// // a member made again from the same index and seed draws the same numbers
+/// let mut again = Member::new(3, member_seed(7, 3));
+/// assert_eq!(again.rng().random::<f64>(), a);
+/// ```
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Member {
     /// Index in `0..members`.
     pub index: u64,
     /// Seed derived from the master seed and the index.
     pub seed: u64,
+    /// The generator, made at the first draw.
+    rng: Option<StdRng>,
 }
 
 impl Member {
-    /// A random generator seeded with the member's seed (`StdRng`, ChaCha12).
-    pub fn rng(&self) -> StdRng {
-        StdRng::seed_from_u64(self.seed)
+    /// Member `index` with seed `seed` (its generator not yet drawn from).
+    pub fn new(index: u64, seed: u64) -> Self {
+        Member { index, seed, rng: None }
+    }
+
+    /// The member's random generator (`StdRng`, ChaCha12, seeded with the member's seed
+    /// at the first call): the same generator at every call, so successive draws
+    /// continue one stream. Everything random in a member should come from here; what it
+    /// draws then depends only on the master seed and the index, not on the threads or
+    /// shards.
+    pub fn rng(&mut self) -> &mut StdRng {
+        let seed = self.seed;
+        self.rng.get_or_insert_with(|| StdRng::seed_from_u64(seed))
     }
 }
 
@@ -136,6 +162,7 @@ impl std::str::FromStr for Shard {
 /// What each member reports: a row of `names.len()` values at each of `times`, the first
 /// `moments` of which enter the mean and covariance; every column gets a quantile sketch.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "LayoutFile")]
 pub struct Layout {
     /// The saved times.
     pub times: Vec<f64>,
@@ -165,10 +192,30 @@ impl Layout {
     }
 }
 
+/// [`Layout`] as stored, before [`Layout::new`]'s checks.
+#[derive(Deserialize)]
+struct LayoutFile {
+    times: Vec<f64>,
+    names: Vec<String>,
+    moments: usize,
+}
+
+impl TryFrom<LayoutFile> for Layout {
+    type Error = Error;
+    fn try_from(f: LayoutFile) -> Result<Layout> {
+        Layout::new(f.times, f.names, f.moments)
+    }
+}
+
 /// An ensemble's statistics: per saved time a [`Snapshot`]; which members they cover
 /// (the ensemble size, master seed and shards) and a free-form `job` description that
 /// must match for [`Statistics::merge`].
+///
+/// Read from a file (serde, or [`Statistics::from_json`]), they are checked against
+/// [`Statistics::validate`]'s invariants before they exist: a damaged or edited file is
+/// refused with the field it got wrong, never merged into a wrong or partial answer.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "StatisticsFile")]
 pub struct Statistics {
     /// What each member reported.
     pub layout: Layout,
@@ -186,7 +233,153 @@ pub struct Statistics {
     pub snapshots: Vec<Snapshot>,
 }
 
+/// [`Statistics`] as stored, before [`Statistics::validate`].
+#[derive(Deserialize)]
+struct StatisticsFile {
+    layout: Layout,
+    members: u64,
+    seed: u64,
+    shard_count: u64,
+    shards: Vec<u64>,
+    job: String,
+    snapshots: Vec<stats::SnapshotFile>,
+}
+
+impl TryFrom<StatisticsFile> for Statistics {
+    type Error = Error;
+    fn try_from(f: StatisticsFile) -> Result<Statistics> {
+        let snapshots = f
+            .snapshots
+            .into_iter()
+            .enumerate()
+            .map(|(k, s)| {
+                s.into_snapshot()
+                    .map_err(|e| Error::invalid("statistics", format!("snapshots[{k}].{e}")))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let s = Statistics {
+            layout: f.layout,
+            members: f.members,
+            seed: f.seed,
+            shard_count: f.shard_count,
+            shards: f.shards,
+            job: f.job,
+            snapshots,
+        };
+        s.validate()?;
+        Ok(s)
+    }
+}
+
 impl Statistics {
+    /// Statistics from the JSON that serde writes (`reckon ensemble --stats`), checked
+    /// ([`validate`](Self::validate)): [`Error::InvalidInput`] naming the field for
+    /// anything else.
+    ///
+    /// ```
+    /// use reckon::ensemble::{Ensemble, Layout, Shard, Statistics};
+    /// let layout = Layout::new(vec![1.0], vec!["x".into()], 1).unwrap();
+    /// let part = Ensemble::new(10, 1).shard(Shard::new(0, 2).unwrap()).run(&layout, |m, row| {
+    ///     row[0] = m.index as f64;
+    ///     Ok(())
+    /// }).unwrap();
+    /// let text = serde_json::to_string(&part).unwrap();
+    /// assert_eq!(Statistics::from_json(&text).unwrap(), part);
+    /// // the same counts presented as both shards: refused, naming the field
+    /// let lie = text.replace(r#""shards":[0]"#, r#""shards":[0,1]"#);
+    /// let e = Statistics::from_json(&lie).unwrap_err().to_string();
+    /// assert!(e.contains("snapshots[0].moments.n: 5 members counted, but shards [0, 1] of 2 hold 10"), "{e}");
+    /// ```
+    pub fn from_json(text: &str) -> Result<Statistics> {
+        serde_json::from_str(text).map_err(|e| match e.classify() {
+            serde_json::error::Category::Data => {
+                // a message from our own checks, or a missing or mistyped field
+                let msg = e.to_string();
+                Error::invalid(
+                    "statistics",
+                    msg.strip_prefix("invalid statistics: ").unwrap_or(&msg).to_string(),
+                )
+            }
+            _ => Error::invalid("statistics", format!("not JSON ({e})")),
+        })
+    }
+
+    /// Check the invariants every run and merge keeps: a valid [`Layout`]; at least one
+    /// member; shard count `N ≥ 1` and shard indices ascending, distinct and below `N`;
+    /// one snapshot per saved time with moments of the layout's moment columns and a
+    /// sketch per column (each passing [`Snapshot::check`]); and at every saved time
+    /// exactly the members of the shards covered counted, by the moments and by every
+    /// sketch. `Err` ([`Error::InvalidInput`]) names the field.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |reason: String| Err(Error::invalid("statistics", reason));
+        let l = &self.layout;
+        if let Err(e) = Layout::new(l.times.clone(), l.names.clone(), l.moments) {
+            return bad(format!("layout: {e}"));
+        }
+        if self.members == 0 {
+            return bad("members: 0 (an ensemble has at least one member)".into());
+        }
+        let n = self.shard_count;
+        if n == 0 {
+            return bad("shard_count: 0 (at least 1)".into());
+        }
+        if self.shards.is_empty() {
+            return bad("shards: none".into());
+        }
+        if let Some(k) = self.shards.iter().find(|k| **k >= n) {
+            return bad(format!("shards: {k} is not a shard of {n} (0 to {})", n - 1));
+        }
+        if let Some(w) = self.shards.windows(2).find(|w| w[0] >= w[1]) {
+            return bad(format!("shards: {} then {} (each shard once, ascending)", w[0], w[1]));
+        }
+        let expected: u64 = self
+            .shards
+            .iter()
+            .map(|k| Shard { index: *k, count: n }.len(self.members))
+            .sum();
+        if self.snapshots.len() != l.times.len() {
+            return bad(format!(
+                "snapshots: {} for {} saved times",
+                self.snapshots.len(),
+                l.times.len()
+            ));
+        }
+        for (k, s) in self.snapshots.iter().enumerate() {
+            if s.moments.dim() != l.moments {
+                return bad(format!(
+                    "snapshots[{k}].moments.dim: {}, but the layout has {} moment columns",
+                    s.moments.dim(),
+                    l.moments
+                ));
+            }
+            if s.sketches.len() != l.names.len() {
+                return bad(format!(
+                    "snapshots[{k}].sketches: {} for {} columns",
+                    s.sketches.len(),
+                    l.names.len()
+                ));
+            }
+            if let Err(e) = s.check() {
+                return bad(format!("snapshots[{k}].{e}"));
+            }
+            if s.moments.count() != expected {
+                return bad(format!(
+                    "snapshots[{k}].moments.n: {} members counted, but shards {:?} of {n} hold {expected}",
+                    s.moments.count(),
+                    self.shards
+                ));
+            }
+            if let Some(i) = s.sketches.iter().position(|q| q.count() != expected) {
+                return bad(format!(
+                    "snapshots[{k}].sketches[{i}]: {} values, but shards {:?} of {n} hold {expected} members",
+                    s.sketches[i].count(),
+                    self.shards
+                ));
+            }
+        }
+        Ok(())
+    }
+
     fn empty(layout: &Layout) -> Vec<Snapshot> {
         layout
             .times
@@ -217,9 +410,11 @@ impl Statistics {
 
     /// Add the statistics of other shards of the same ensemble: the result is exactly
     /// the statistics of the union (bit for bit what one run over those members gives).
-    /// Refused if the layout, job, size, seed or shard count differ, or a shard appears
-    /// twice.
+    /// Refused if either side fails [`validate`](Self::validate), if the layout, job,
+    /// size, seed or shard count differ, or if a shard is in both.
     pub fn merge(&mut self, other: &Statistics) -> Result<()> {
+        self.validate()?;
+        other.validate()?;
         let same = self.layout == other.layout
             && self.job == other.job
             && self.members == other.members
@@ -252,9 +447,11 @@ impl Statistics {
                 format!("shard {k}/{} is counted twice", self.shard_count),
             ));
         }
-        for (a, b) in self.snapshots.iter_mut().zip(&other.snapshots) {
-            a.merge(b);
+        let mut merged = self.snapshots.clone();
+        for (a, b) in merged.iter_mut().zip(&other.snapshots) {
+            a.merge(b)?;
         }
+        self.snapshots = merged;
         self.shards.extend(&other.shards);
         self.shards.sort_unstable();
         Ok(())
@@ -265,6 +462,10 @@ impl Statistics {
         self.shards.len() as u64 == self.shard_count
     }
 }
+
+/// The most worker threads an ensemble runs on ([`Ensemble::threads`]): each has its
+/// own stack and accumulators, and more threads than cores only add their cost.
+pub const MAX_THREADS: usize = 1024;
 
 /// How to run an ensemble: size, master seed, shard, threads, progress bar.
 #[derive(Debug, Clone, PartialEq)]
@@ -302,7 +503,7 @@ impl Ensemble {
         self
     }
 
-    /// Use `n` worker threads.
+    /// Use `n` worker threads (1 to [`MAX_THREADS`]; others are refused by `run`).
     pub fn threads(mut self, n: usize) -> Self {
         self.threads = Some(n);
         self
@@ -321,20 +522,26 @@ impl Ensemble {
     }
 
     /// Run every member of the shard: `member(m, rows)` fills `rows` (the saved times one
-    /// after the other, `layout.names.len()` values each) or fails. A member that fails,
+    /// after the other, `layout.names.len()` values each) or fails; `m` is the member,
+    /// with its own generator ([`Member::rng`]). A member that fails,
     /// or reports a NaN, ends the run with [`Error::EnsembleMember`] for the lowest such
     /// index (members above it may be skipped, members below it all run), so the error
     /// too is the same for any number of threads.
     pub fn run<F>(&self, layout: &Layout, member: F) -> Result<Statistics>
     where
-        F: Fn(&Member, &mut [f64]) -> Result<()> + Sync,
+        F: Fn(&mut Member, &mut [f64]) -> Result<()> + Sync,
     {
         if self.members == 0 {
             return Err(Error::invalid("members", "an ensemble needs at least one member"));
         }
         Shard::new(self.shard.index, self.shard.count)?;
-        if self.threads == Some(0) {
-            return Err(Error::invalid("threads", "need at least one thread"));
+        if let Some(n) = self.threads
+            && !(1..=MAX_THREADS).contains(&n)
+        {
+            return Err(Error::invalid(
+                "threads",
+                format!("{n}: need 1 to {MAX_THREADS} worker threads"),
+            ));
         }
         let work = || self.run_here(layout, &member);
         let snapshots = match self.threads {
@@ -358,7 +565,7 @@ impl Ensemble {
 
     fn run_here<F>(&self, layout: &Layout, member: &F) -> Result<Vec<Snapshot>>
     where
-        F: Fn(&Member, &mut [f64]) -> Result<()> + Sync,
+        F: Fn(&mut Member, &mut [f64]) -> Result<()> + Sync,
     {
         let count = self.shard.len(self.members);
         let width = layout.width();
@@ -395,22 +602,20 @@ impl Ensemble {
                 if index > first_failure.load(Ordering::Relaxed) {
                     return acc;
                 }
-                let m = Member {
-                    index,
-                    seed: member_seed(self.seed, index),
-                };
+                let mut m = Member::new(index, member_seed(self.seed, index));
                 acc.rows.fill(0.0);
-                let outcome = member(&m, &mut acc.rows).and_then(|()| match acc.rows.iter().position(|v| v.is_nan()) {
-                    Some(p) => Err(Error::invalid(
-                        "member output",
-                        format!(
-                            "'{}' at t = {} is NaN",
-                            layout.names[p % width],
-                            crate::error::Brief(layout.times[p / width])
-                        ),
-                    )),
-                    None => Ok(()),
-                });
+                let outcome =
+                    member(&mut m, &mut acc.rows).and_then(|()| match acc.rows.iter().position(|v| v.is_nan()) {
+                        Some(p) => Err(Error::invalid(
+                            "member output",
+                            format!(
+                                "'{}' at t = {} is NaN",
+                                layout.names[p % width],
+                                crate::error::Brief(layout.times[p / width])
+                            ),
+                        )),
+                        None => Ok(()),
+                    });
                 match outcome {
                     Ok(()) => {
                         for (s, row) in acc.snapshots.iter_mut().zip(acc.rows.chunks_exact(width)) {
@@ -429,7 +634,8 @@ impl Ensemble {
             })
             .reduce(fresh, |mut a, b| {
                 for (x, y) in a.snapshots.iter_mut().zip(&b.snapshots) {
-                    x.merge(y);
+                    // the same layout on both sides, at most the shard's members counted
+                    x.merge(y).expect("snapshots of one layout merge");
                 }
                 match (&a.failure, b.failure) {
                     (Some(f), Some(g)) if g.0 < f.0 => a.failure = Some(g),
@@ -449,7 +655,8 @@ impl Ensemble {
         }
     }
 
-    /// Run an ODE ensemble: `solve(m)` returns member `m`'s solution saved at exactly the
+    /// Run an ODE ensemble: `solve(m)` returns member `m`'s solution (drawing its random
+    /// inputs from [`Member::rng`]) saved at exactly the
     /// layout's times ([`Save::At`](crate::Save::At), which must include `t0` if it is a
     /// saved time); its states are the rows (`layout.names.len()` must be the state
     /// dimension).
@@ -465,7 +672,7 @@ impl Ensemble {
     /// let opts = Options::default().rtol(1e-10).atol(1e-12).save(Save::At(vec![1.0]));
     /// let stats = Ensemble::new(4000, 1)
     ///     .solve(&layout, |m| {
-    ///         let x0 = Normal::new(1.0, 0.1).unwrap().sample(&mut m.rng());
+    ///         let x0 = Normal::new(1.0, 0.1).unwrap().sample(m.rng());
     ///         Problem::new(&f, vector![x0], (0.0, 1.0)).solve(Dopri5::default(), &opts)
     ///     })
     ///     .unwrap();
@@ -476,7 +683,7 @@ impl Ensemble {
     where
         D: nalgebra::Dim,
         nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D>,
-        F: Fn(&Member) -> Result<crate::Solution<D>> + Sync,
+        F: Fn(&mut Member) -> Result<crate::Solution<D>> + Sync,
     {
         let width = layout.width();
         self.run(layout, |m, rows| {

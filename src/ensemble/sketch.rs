@@ -32,6 +32,7 @@ pub const RELATIVE_ACCURACY: f64 = 1.0 / (1u64 << (MANTISSA_BITS + 1)) as f64;
 /// assert_eq!(s.count(), 1000);
 /// ```
 #[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(try_from = "SketchFile")]
 pub struct Sketch {
     /// Counts of positive values by key.
     positive: BTreeMap<u32, u64>,
@@ -40,6 +41,40 @@ pub struct Sketch {
     /// Zeros and subnormals (|x| < 2⁻¹⁰²²), reported as 0.
     zero: u64,
 }
+
+/// A sketch as stored, before [`Sketch::check`].
+#[derive(Deserialize)]
+pub(crate) struct SketchFile {
+    positive: BTreeMap<u32, u64>,
+    negative: BTreeMap<u32, u64>,
+    zero: u64,
+}
+
+impl SketchFile {
+    /// The sketch, or why not (naming the field).
+    pub(crate) fn into_sketch(self) -> Result<Sketch, String> {
+        let s = Sketch {
+            positive: self.positive,
+            negative: self.negative,
+            zero: self.zero,
+        };
+        s.check()?;
+        Ok(s)
+    }
+}
+
+impl TryFrom<SketchFile> for Sketch {
+    type Error = crate::Error;
+    fn try_from(f: SketchFile) -> crate::Result<Sketch> {
+        f.into_sketch()
+            .map_err(|reason| crate::Error::invalid("sketch", reason))
+    }
+}
+
+/// The key of the smallest normal magnitude, `2⁻¹⁰²²`.
+const KEY_MIN: u32 = (f64::MIN_POSITIVE.to_bits() >> (52 - MANTISSA_BITS)) as u32;
+/// The key of `∞` (the top bucket).
+const KEY_MAX: u32 = (f64::INFINITY.to_bits() >> (52 - MANTISSA_BITS)) as u32;
 
 fn key(m: f64) -> u32 {
     (m.to_bits() >> (52 - MANTISSA_BITS)) as u32
@@ -112,6 +147,33 @@ impl Sketch {
             }
         }
         None
+    }
+
+    /// Whether the sketch is one that adding values can make: every key that of a normal
+    /// magnitude or `∞`, and the total count within `u64`. `Err` names the field.
+    ///
+    /// ```
+    /// use reckon::ensemble::Sketch;
+    /// let mut s = Sketch::default();
+    /// s.add(3.0);
+    /// assert!(s.check().is_ok());
+    /// let bad: Result<Sketch, _> = serde_json::from_str(r#"{"positive":{"4294967295":1},"negative":{},"zero":0}"#);
+    /// assert!(bad.unwrap_err().to_string().contains("positive"));
+    /// ```
+    pub fn check(&self) -> Result<(), String> {
+        for (name, map) in [("positive", &self.positive), ("negative", &self.negative)] {
+            if let Some(k) = map.keys().find(|k| !(KEY_MIN..=KEY_MAX).contains(*k)) {
+                return Err(format!(
+                    "{name}: bucket key {k} is not one of a value (keys {KEY_MIN} to {KEY_MAX})"
+                ));
+            }
+        }
+        self.positive
+            .values()
+            .chain(self.negative.values())
+            .try_fold(self.zero, |a, c| a.checked_add(*c))
+            .ok_or_else(|| "the counts add up beyond 2⁶⁴".to_string())?;
+        Ok(())
     }
 
     /// Number of buckets in use (the sketch's memory is about 24 bytes each).

@@ -57,6 +57,9 @@ impl DiffDrive {
     /// assert!(DiffDrive::new(0.1, 0.0, 1024.0).is_err());
     /// assert!(DiffDrive::new(0.1, 1e-320, 1024.0).is_err()); // 1/B overflows
     /// assert!(DiffDrive::new(1e-300, 0.5, 1e300).is_err()); // πD/N underflows to 0
+    /// // πD/N overflows because N is tiny: N is the value blamed
+    /// let e = DiffDrive::new(0.1, 0.5, 1e-320).unwrap_err();
+    /// assert!(matches!(e, reckon::Error::InvalidInput { what: "pulses_per_rev", .. }), "{e}");
     /// ```
     pub fn new(wheel_diameter: f64, wheel_separation: f64, pulses_per_rev: f64) -> Result<Self> {
         for (what, v) in [
@@ -75,8 +78,17 @@ impl DiffDrive {
         };
         let k = robot.distance_per_pulse();
         if !k.is_normal() {
+            // blame the factor that drove πD/N out of range: N for an overflow (a tiny
+            // count per revolution) or an underflow from a huge one, else D
+            let blame = if (k.is_infinite() && pulses_per_rev < 1.0)
+                || (k < 1.0 && pulses_per_rev > 1.0 && wheel_diameter >= 1.0)
+            {
+                "pulses_per_rev"
+            } else {
+                "wheel_diameter"
+            };
             return Err(Error::invalid(
-                "wheel_diameter",
+                blame,
                 format!(
                     "the distance per pulse πD/N = π·{wheel_diameter:e}/{pulses_per_rev:e} = {k:e} m is not a usable positive number"
                 ),

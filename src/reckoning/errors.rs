@@ -110,21 +110,23 @@ pub fn samples_of(c: &Command, dt: f64) -> (u64, f64) {
 
 /// The encoder robot one sample at a time: [`simulate`] without storing, for long runs
 /// and ensembles. Each sample draws from the generator given: the left then right pulse
-/// noise if `pulse_noise ≠ 0`, then the left then right slip if `slip_sigma ≠ 0`.
+/// noise if `pulse_noise ≠ 0`, then the left then right slip if `slip_sigma ≠ 0`. The
+/// generator is owned or borrowed (`&mut StdRng`: an ensemble member's own,
+/// [`Member::rng`](crate::ensemble::Member::rng)).
 #[derive(Debug, Clone)]
-pub struct Simulator<'a> {
+pub struct Simulator<'a, R: rand::Rng = StdRng> {
     robot: &'a DiffDrive,
     e: &'a EncoderErrors,
-    rng: StdRng,
+    rng: R,
     unit: Normal<f64>,
     carry: (f64, f64),
     /// The true pose.
     pub pose: Vector3<f64>,
 }
 
-impl<'a> Simulator<'a> {
+impl<'a, R: rand::Rng> Simulator<'a, R> {
     /// At true pose `start`, drawing noise from `rng` (`e.seed` is not used).
-    pub fn new(robot: &'a DiffDrive, e: &'a EncoderErrors, start: Vector3<f64>, rng: StdRng) -> Self {
+    pub fn new(robot: &'a DiffDrive, e: &'a EncoderErrors, start: Vector3<f64>, rng: R) -> Self {
         Simulator {
             robot,
             e,

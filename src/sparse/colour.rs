@@ -20,7 +20,7 @@ use num_dual::DualDVec64;
 /// use reckon::sparse::{Pattern, colour::Colouring};
 /// // tridiagonal 5 × 5: three colours (columns j, j + 3, … share no row)
 /// let e: Vec<_> = (0..5usize).flat_map(|i| [(i, i.saturating_sub(1)), (i, i), (i, (i + 1).min(4))]).collect();
-/// let c = Colouring::greedy(&Pattern::from_entries(5, &e));
+/// let c = Colouring::greedy(&Pattern::from_entries(5, &e).unwrap());
 /// assert_eq!(c.count(), 3);
 /// assert_eq!(c.colours(), &[0, 1, 2, 0, 1]);
 /// ```
@@ -103,7 +103,7 @@ impl Colouring {
 ///     DVector::from_fn(n, |i, _| x[i].clone() * x[i].clone() + x[(i + 1) % n].clone())
 /// };
 /// let e: Vec<_> = (0..4).flat_map(|i| [(i, i), (i, (i + 1) % 4)]).collect();
-/// let mut jac = Coloured::new(Pattern::from_entries(4, &e), g);
+/// let mut jac = Coloured::new(Pattern::from_entries(4, &e).unwrap(), g);
 /// assert_eq!(jac.colouring().count(), 2);
 /// let mut v = vec![0.0; 8];
 /// jac.eval(0.0, &[1.0, 2.0, 3.0, 4.0], &[], &mut v);
@@ -226,7 +226,7 @@ where
             let r = g(t, &xd, u);
             for (i, ri) in r.iter().enumerate().take(n) {
                 if let Some(e) = ri.eps.0.as_ref() {
-                    for (k, d) in e.iter().enumerate() {
+                    for (k, d) in e.iter().enumerate().take(width) {
                         if *d != 0.0 {
                             entries.push((i, start + k));
                         }
@@ -235,7 +235,8 @@ where
             }
         }
     }
-    Pattern::from_entries(n, &entries)
+    // rows below n (take(n)), columns below start + width ≤ n
+    Pattern::from_valid_entries(n, &entries)
 }
 
 /// Largest state for which a model that cannot be traced gets its pattern detected and

@@ -22,13 +22,13 @@ use faer::{Conj, MatMut, Par};
 /// ```
 /// use reckon::sparse::{Pattern, SparseLu};
 /// // [[4, 1], [2, 3]] in CSC order: (0,0), (1,0), (0,1), (1,1)
-/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]);
+/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]).unwrap();
 /// let mut lu = SparseLu::new(&p).unwrap();
-/// assert!(lu.factor(&[4.0, 2.0, 1.0, 3.0]));
+/// assert_eq!(lu.factor(&[4.0, 2.0, 1.0, 3.0]), Ok(true));
 /// let mut b = [5.0, 5.0]; // A·(1, 1)
 /// lu.solve_in_place(&mut b);
 /// assert!((b[0] - 1.0).abs() < 1e-15 && (b[1] - 1.0).abs() < 1e-15);
-/// assert!(!lu.factor(&[1.0, 1.0, 1.0, 1.0])); // singular
+/// assert_eq!(lu.factor(&[1.0, 1.0, 1.0, 1.0]), Ok(false)); // singular
 /// ```
 pub struct SparseLu {
     col_ptr: Vec<usize>,
@@ -80,18 +80,35 @@ impl SparseLu {
         self.col_ptr.len() - 1
     }
 
-    /// Factor the matrix whose non-zeros are `values` (in the pattern's order); `false`
-    /// when it is singular (no pivot, or a zero or non-finite one).
-    pub fn factor(&mut self, values: &[f64]) -> bool {
-        assert_eq!(
-            values.len(),
-            self.row_idx.len(),
-            "SparseLu::factor: values do not match the pattern"
-        );
+    /// Factor the matrix whose non-zeros are `values` (in the pattern's order):
+    /// `Ok(false)` when it is singular (no pivot, or a zero or non-finite one),
+    /// [`Error::InvalidInput`](crate::Error::InvalidInput) when `values` does not have
+    /// one value per non-zero of the pattern.
+    ///
+    /// ```
+    /// use reckon::sparse::{Pattern, SparseLu};
+    /// let p = Pattern::from_entries(2, &[(0, 0), (1, 1)]).unwrap();
+    /// let mut lu = SparseLu::new(&p).unwrap();
+    /// assert_eq!(lu.factor(&[2.0, 4.0]), Ok(true));
+    /// let e = lu.factor(&[2.0, 4.0, 1.0]).unwrap_err();
+    /// assert_eq!(e.to_string(), "invalid values: 3 values for a pattern of 2 non-zeros");
+    /// assert!(!lu.is_factored());
+    /// ```
+    pub fn factor(&mut self, values: &[f64]) -> crate::Result<bool> {
         self.factored = false;
+        if values.len() != self.row_idx.len() {
+            return Err(crate::Error::invalid(
+                "values",
+                format!(
+                    "{} values for a pattern of {} non-zeros",
+                    values.len(),
+                    self.row_idx.len()
+                ),
+            ));
+        }
         let n = self.n();
         if !values.iter().all(|v| v.is_finite()) {
-            return false;
+            return Ok(false);
         }
         let sym = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
         let a = SparseColMatRef::new(sym, values);
@@ -101,7 +118,7 @@ impl SparseLu {
             .factorize_numeric_lu(&mut self.numeric, a, Par::Seq, stack, Default::default())
             .is_err()
         {
-            return false;
+            return Ok(false);
         }
         self.factored = true;
         // a zero pivot leaves ∞ or NaN in L or U, which every solve meets: probe with a
@@ -114,7 +131,7 @@ impl SparseLu {
         let ok = probe.iter().all(|v| v.is_finite());
         self.probe = probe;
         self.factored = ok;
-        ok
+        Ok(ok)
     }
 
     /// Forget the factorisation (until the next successful [`factor`](Self::factor)).

@@ -40,7 +40,7 @@ pub const AUTO_MAX_DENSITY: f64 = 0.1;
 /// ```
 /// use reckon::sparse::Pattern;
 /// // [[a, 0], [b, c]]: column 0 has rows 0, 1; column 1 has row 1
-/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]);
+/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]).unwrap();
 /// assert_eq!(p.col_ptr(), &[0, 2, 3]);
 /// assert_eq!(p.row_idx(), &[0, 1, 1]);
 /// assert_eq!(p.nnz(), 3);
@@ -56,10 +56,28 @@ pub struct Pattern {
 
 impl Pattern {
     /// The pattern holding the `(row, column)` entries given (any order, repeats
-    /// merged) of an `n × n` matrix. Panics on an index `≥ n` (a programming error).
-    pub fn from_entries(n: usize, entries: &[(usize, usize)]) -> Self {
+    /// merged) of an `n × n` matrix; [`Error::InvalidInput`](crate::Error::InvalidInput)
+    /// for an index `≥ n`.
+    ///
+    /// ```
+    /// use reckon::sparse::Pattern;
+    /// assert_eq!(Pattern::from_entries(2, &[(1, 1), (0, 0), (1, 1)]).unwrap().nnz(), 2);
+    /// let e = Pattern::from_entries(2, &[(0, 0), (2, 1)]).unwrap_err();
+    /// assert_eq!(e.to_string(), "invalid pattern: entry (2, 1) is outside the 2 × 2 matrix");
+    /// ```
+    pub fn from_entries(n: usize, entries: &[(usize, usize)]) -> crate::Result<Self> {
+        if let Some((r, c)) = entries.iter().find(|&&(r, c)| r >= n || c >= n) {
+            return Err(crate::Error::invalid(
+                "pattern",
+                format!("entry ({r}, {c}) is outside the {n} × {n} matrix"),
+            ));
+        }
+        Ok(Self::from_valid_entries(n, entries))
+    }
+
+    /// [`from_entries`](Self::from_entries) of entries known to be in range.
+    pub(crate) fn from_valid_entries(n: usize, entries: &[(usize, usize)]) -> Self {
         let mut e: Vec<(usize, usize)> = entries.iter().map(|&(r, c)| (c, r)).collect();
-        assert!(e.iter().all(|&(c, r)| c < n && r < n), "Pattern: index out of range");
         e.sort_unstable();
         e.dedup();
         let mut col_ptr = vec![0; n + 1];
@@ -137,7 +155,7 @@ impl Pattern {
         }
         let mut e: Vec<(usize, usize)> = self.entries().collect();
         e.extend((0..self.n).map(|j| (j, j)));
-        Pattern::from_entries(self.n, &e)
+        Pattern::from_valid_entries(self.n, &e)
     }
     /// Every `(row, col)` entry, column by column.
     pub fn entries(&self) -> impl Iterator<Item = (usize, usize)> + '_ {

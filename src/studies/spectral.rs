@@ -69,7 +69,7 @@ impl Default for SpectralOptions {
 /// use reckon::sparse::Pattern;
 /// use reckon::studies::spectral::spmv;
 /// // [[2, 0], [1, 3]]: column 0 rows 0, 1; column 1 row 1
-/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]);
+/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]).unwrap();
 /// let mut y = [0.0; 2];
 /// spmv(&p, &[2.0, 1.0, 3.0], &[1.0, 1.0], &mut y);
 /// assert_eq!(y, [2.0, 4.0]);
@@ -96,7 +96,7 @@ pub fn spmv(pattern: &Pattern, values: &[f64], x: &[f64], y: &mut [f64]) {
 /// use reckon::sparse::Pattern;
 /// use reckon::studies::spectral::gershgorin;
 /// // [[-4, 1], [2, -1]]: row sums 5, 3; column sums 6, 2
-/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]);
+/// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]).unwrap();
 /// assert_eq!(gershgorin(&p, &[-4.0, 2.0, 1.0, -1.0]), 5.0);
 /// ```
 pub fn gershgorin(pattern: &Pattern, values: &[f64]) -> f64 {
@@ -380,7 +380,7 @@ fn ritz_vector(theta: Complex64, y: &[Complex64], v: &[f64], n: usize) -> Vec<f6
 /// use reckon::sparse::Pattern;
 /// use reckon::studies::spectral::{sparse_spectrum, SpectralOptions};
 /// // diag(−1, −10, −100)
-/// let p = Pattern::from_entries(3, &[(0, 0), (1, 1), (2, 2)]);
+/// let p = Pattern::from_entries(3, &[(0, 0), (1, 1), (2, 2)]).unwrap();
 /// let s = sparse_spectrum(0.0, &p, &[-1.0, -10.0, -100.0], &SpectralOptions::default()).unwrap();
 /// assert!((s.spectral_radius - 100.0).abs() < 1e-10 && (s.smallest.re + 1.0).abs() < 1e-12);
 /// assert!((s.ratio - 100.0).abs() < 1e-9 && s.gershgorin == 100.0);
@@ -418,7 +418,7 @@ pub struct SparseSpectrum {
 /// let n = 30;
 /// let mut e = Vec::new();
 /// for i in 0..n { e.push((i, i)); if i + 1 < n { e.push((i + 1, i)); e.push((i, i + 1)); } }
-/// let p = Pattern::from_entries(n, &e);
+/// let p = Pattern::from_entries(n, &e).unwrap();
 /// let v: Vec<f64> = p.entries().map(|(r, c)| if r == c { -2.0 } else { 1.0 }).collect();
 /// let o = SpectralOptions { tol: 1e-12, ..Default::default() };
 /// let s = sparse_spectrum(0.0, &p, &v, &o).unwrap();
@@ -456,7 +456,7 @@ pub struct SpectralWorkspace {
 /// use reckon::sparse::Pattern;
 /// use reckon::studies::spectral::{sparse_spectrum_with, SpectralOptions, SpectralWorkspace};
 /// // diag(−1, −2, …, −300) and then twice that
-/// let p = Pattern::from_entries(300, &(0..300).map(|i| (i, i)).collect::<Vec<_>>());
+/// let p = Pattern::from_entries(300, &(0..300).map(|i| (i, i)).collect::<Vec<_>>()).unwrap();
 /// let v: Vec<f64> = (0..300).map(|i| -((i + 1) as f64)).collect();
 /// let (o, mut ws) = (SpectralOptions { tol: 1e-10, ..Default::default() }, SpectralWorkspace::default());
 /// let a = sparse_spectrum_with(0.0, &p, &v, &o, &mut ws).unwrap();
@@ -510,7 +510,7 @@ pub fn sparse_spectrum_with(
     let Some((_, Some(lu))) = ws.lu.as_mut() else {
         return Ok(out); // structurally singular
     };
-    if !lu.factor(values) {
+    if !lu.factor(values)? {
         return Ok(out);
     }
     let mut inv = |x: &[f64], y: &mut [f64]| {

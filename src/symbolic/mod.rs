@@ -226,7 +226,28 @@ where
             format!("f returned {} components for a state of {n}", f.len()),
         ));
     }
-    Ok(Traced::build(g, n, m, f, model))
+    let tr = Traced::build(g, n, m, f, model);
+    // constants the body wrote are checked as they enter (a `PlainValue` fault); those
+    // made by folding (1/L for L = 1e-320 in a derivative) are checked here, on every
+    // expression of the right-hand side and its derivatives
+    let roots: Vec<u32> =
+        tr.f.iter()
+            .copied()
+            .chain(tr.jx.iter().map(|e| e.2))
+            .chain(tr.ju.iter().map(|e| e.2))
+            .chain(tr.jt.iter().map(|e| e.1))
+            .collect();
+    let reach = tr.g.reachable(&roots);
+    if let Some(v) = (0..tr.g.len() as u32)
+        .filter(|id| reach[*id as usize])
+        .find_map(|id| tr.g.constant(id).filter(|v| !v.is_finite()))
+    {
+        return Err(untraceable(format!(
+            "folding its constants gives {v} (an operation on its numbers overflows or is undefined: \
+             a parameter out of range), so its right-hand side or Jacobian is not finite"
+        )));
+    }
+    Ok(tr)
 }
 
 /// The trace of a model: its right-hand side and derivatives as expressions of one graph.

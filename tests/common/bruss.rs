@@ -89,7 +89,7 @@ pub fn entries(n: usize) -> Vec<(usize, usize)> {
 }
 
 pub fn pattern(n: usize) -> Pattern {
-    Pattern::from_entries(2 * n, &entries(n))
+    Pattern::from_entries(2 * n, &entries(n)).unwrap()
 }
 
 /// `J(row, col)` by hand.

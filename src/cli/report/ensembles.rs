@@ -153,8 +153,8 @@ pub(super) fn section(r: &mut Report, dir: &Path, fast: bool) -> Res {
     }
     let auv_layout = Layout::new(saved_t.clone(), vec!["ex".into(), "ey".into(), "ez".into()], 3)?;
     let auv = Ensemble::new(members, 42).run(&auv_layout, |m, rows| {
-        let mut rng = m.rng();
-        let mut n = || -> f64 { StandardNormal.sample(&mut rng) };
+        let rng = m.rng();
+        let mut n = || -> f64 { StandardNormal.sample(rng) };
         // initial error ~ N(0, 0.01·I), as the filter assumes
         let mut e = Vector3::new(n(), n(), n()) * 0.1;
         let mut out = rows.chunks_exact_mut(3);
@@ -251,11 +251,11 @@ pub(super) fn section(r: &mut Report, dir: &Path, fast: bool) -> Res {
     let hours: Vec<f64> = (1..=6).map(|k| k as f64 * 600.0).collect();
     let walk_layout = Layout::new(hours.clone(), vec!["x".into(), "y".into()], 2)?;
     let walk = Ensemble::new(members, 3600).run(&walk_layout, |m, rows| {
-        let mut rng = m.rng();
+        let rng = m.rng();
         let mut p = Vector2::new(0.0, 0.0);
         let mut out = rows.chunks_exact_mut(2);
         for s in 1..=steps {
-            let (a, b): (f64, f64) = (StandardNormal.sample(&mut rng), StandardNormal.sample(&mut rng));
+            let (a, b): (f64, f64) = (StandardNormal.sample(rng), StandardNormal.sample(rng));
             p += Vector2::new(0.1 + sv * a, sv * b) * dt;
             if s % 6000 == 0
                 && let Some(row) = out.next()

@@ -179,6 +179,9 @@ pub enum Node {
     Input(u32),
     /// Time `t`.
     Time,
+    /// Parameter `pₖ` of a model's parameter block: an input of the compiled code, never
+    /// folded into a constant (so one compiled program serves every parameter value).
+    Param(u32),
     /// `−a`
     Neg(u32),
     /// `a + b`
@@ -205,7 +208,7 @@ impl Node {
     /// The operands, in order.
     pub fn args(&self) -> ([u32; 2], usize) {
         match *self {
-            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time => ([0, 0], 0),
+            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time | Node::Param(_) => ([0, 0], 0),
             Node::Neg(a) | Node::Powi(a, _) | Node::Powf(a, _) | Node::F(_, a) => ([a, 0], 1),
             Node::Add(a, b)
             | Node::Sub(a, b)
@@ -236,9 +239,9 @@ impl Graph {
         self.nodes.len()
     }
 
-    /// Whether `other` holds the same nodes under the same ids (the same recording).
-    pub fn same_as(&self, other: &Graph) -> bool {
-        self.nodes == other.nodes
+    /// The nodes, in id order.
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
     }
 
     /// Which nodes `roots` depend on (the roots included), indexed by id.
@@ -312,7 +315,7 @@ impl Graph {
     fn rank(&self, id: u32) -> u8 {
         match self.node(id) {
             Node::Const(_) => 0,
-            Node::State(_) | Node::Input(_) | Node::Time => 1,
+            Node::State(_) | Node::Input(_) | Node::Time | Node::Param(_) => 1,
             _ => 2,
         }
     }
@@ -476,7 +479,7 @@ impl Graph {
     /// a node, where `id`'s own value is at hand for the rules that reuse it.
     pub fn partial(&mut self, id: u32, k: usize) -> u32 {
         match self.node(id) {
-            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time => self.num(0.0),
+            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time | Node::Param(_) => self.num(0.0),
             Node::Neg(_) => self.num(-1.0),
             Node::Add(..) => self.num(1.0),
             Node::Sub(..) => self.num(if k == 0 { 1.0 } else { -1.0 }),
@@ -604,23 +607,25 @@ impl Graph {
         }
     }
 
-    /// The value of every node in `order` (ids ascending) given the leaves: a reference
+    /// The value of node `id` given the leaves (`p` the parameters): a reference
     /// evaluator (allocating; the compiled [`Program`](super::compile::Program) is the fast one).
-    pub fn eval(&self, id: u32, t: f64, x: &[f64], u: &[f64]) -> f64 {
+    pub fn eval(&self, id: u32, t: f64, x: &[f64], u: &[f64], p: &[f64]) -> f64 {
         let mut memo: HashMap<u32, f64> = HashMap::new();
-        self.eval_memo(id, t, x, u, &mut memo)
+        self.eval_memo(id, (t, x, u, p), &mut memo)
     }
 
-    fn eval_memo(&self, id: u32, t: f64, x: &[f64], u: &[f64], memo: &mut HashMap<u32, f64>) -> f64 {
+    fn eval_memo(&self, id: u32, at: (f64, &[f64], &[f64], &[f64]), memo: &mut HashMap<u32, f64>) -> f64 {
         if let Some(&v) = memo.get(&id) {
             return v;
         }
-        let ev = |k: u32, memo: &mut HashMap<u32, f64>| self.eval_memo(k, t, x, u, memo);
+        let (t, x, u, p) = at;
+        let ev = |k: u32, memo: &mut HashMap<u32, f64>| self.eval_memo(k, at, memo);
         let v = match self.node(id) {
             Node::Const(b) => f64::from_bits(b),
             Node::State(i) => x[i as usize],
             Node::Input(k) => u[k as usize],
             Node::Time => t,
+            Node::Param(k) => p[k as usize],
             Node::Neg(a) => -ev(a, memo),
             Node::Add(a, b) => ev(a, memo) + ev(b, memo),
             Node::Sub(a, b) => ev(a, memo) - ev(b, memo),

@@ -46,9 +46,10 @@ thread_local! {
     static PLAIN_TIME: std::cell::Cell<f64> = const { std::cell::Cell::new(f64::NAN) };
 }
 
-/// The value a traced body sees for a time written as a plain `t` (an `f64`): `+∞` in one
-/// recording and `−∞` in the other, so that a body computing with it records a non-finite
-/// constant and one branching on it records two different graphs; both are refused.
+/// The value a traced body sees for a time written as a plain `t` (an `f64`) or `_`: `+∞`.
+/// A body that names a plain `t` is refused before it runs (`model!` checks the body's
+/// tokens), so this is only a guard: a hidden use that computes with it records a
+/// non-finite constant and is refused.
 #[doc(hidden)]
 pub fn plain_time() -> f64 {
     PLAIN_TIME.with(|c| c.get())

@@ -42,6 +42,48 @@ fn stats(v: &mut [f64]) -> (f64, f64, f64) {
     (v[0], v[v.len() / 2], v[v.len() - 1])
 }
 
+/// [`brusselator`]'s body with `α` captured as a plain `f64` (folded into the trace).
+fn bruss_captured(n: usize, alpha: f64) -> impl reckon::DualSystem<nalgebra::Dyn> {
+    let c = (n as f64 + 1.0).powi(2) * alpha;
+    reckon::model!(|_, y: [S; Dyn]| {
+        let n = y.len() / 2;
+        nalgebra::DVector::from_fn(2 * n, |k, _| {
+            let i = k / 2;
+            let (own, bc) = if k % 2 == 0 { (0, 1.0) } else { (1, 3.0) };
+            let at = |j: usize| y[2 * j + own].clone();
+            let left = if i == 0 { S::from(bc) } else { at(i - 1) };
+            let right = if i + 1 == n { S::from(bc) } else { at(i + 1) };
+            let (u, v) = (y[2 * i].clone(), y[2 * i + 1].clone());
+            let diff = (left + right - at(i) * 2.0) * c;
+            let uuv = u.clone() * u.clone() * v;
+            if own == 0 {
+                uuv - u * 4.0 + 1.0 + diff
+            } else {
+                u * 3.0 - uuv + diff
+            }
+        })
+    })
+}
+
+/// The same body with `α` a parameter (an input of the compiled code).
+fn bruss_param(alpha: f64) -> impl reckon::DualSystem<nalgebra::Dyn> {
+    reckon::model!(|_, y: [S; Dyn], p: [S; 1] = [alpha]| {
+        let n = y.len() / 2;
+        let c = p[0].clone() * ((n as f64 + 1.0) * (n as f64 + 1.0));
+        nalgebra::DVector::from_fn(2 * n, |k, _| {
+            let i = k / 2;
+            let (own, bc) = if k % 2 == 0 { (0, 1.0) } else { (1, 3.0) };
+            let at = |j: usize| y[2 * j + own].clone();
+            let left = if i == 0 { S::from(bc) } else { at(i - 1) };
+            let right = if i + 1 == n { S::from(bc) } else { at(i + 1) };
+            let (u, v) = (y[2 * i].clone(), y[2 * i + 1].clone());
+            let diff = (left + right - at(i) * 2.0) * c.clone();
+            let uuv = u.clone() * u.clone() * v;
+            if own == 0 { uuv - u * 4.0 + 1.0 + diff } else { u * 3.0 - uuv + diff }
+        })
+    })
+}
+
 fn main() {
     let mut args = std::env::args().skip(1);
     let n: usize = args.next().and_then(|s| s.parse().ok()).unwrap_or(500);
@@ -65,11 +107,32 @@ fn main() {
             let f = brusselator(n);
             Problem::new(&f, y0.clone(), (0.0, 10.0)).solve(Bdf::default(), o)
         };
+        // another α every solve (not a power of two, no coincidences): captured, a new graph
+        // each time (traced, machine code reused); a parameter, the same graph (a hit)
+        let alpha = |round: usize| 0.02 * (1.0 + 0.0137 * (round as f64 + 1.0));
+        let captured_solve = |round: usize| {
+            let f = bruss_captured(n, alpha(round));
+            let t0 = cpu();
+            let s = Problem::new(&f, y0.clone(), (0.0, 10.0))
+                .solve(Bdf::default(), &o)
+                .unwrap();
+            (cpu() - t0, s.stats.accepted)
+        };
+        let param_solve = |round: usize| {
+            let t0 = cpu();
+            let f = bruss_param(alpha(round));
+            let s = Problem::new(&f, y0.clone(), (0.0, 10.0))
+                .solve(Bdf::default(), &o)
+                .unwrap();
+            (cpu() - t0, s.stats.accepted)
+        };
         // warm-up: fills the cache, the allocator and the caches of the CPU
         let reference = solve(&kept_solve);
         let _ = solve(&rebuilt_solve);
         let before = symbolic::cache_stats();
+        let _ = (captured_solve(rounds + 7), param_solve(rounds + 7));
         let (mut tk, mut tr, mut tc, mut ratio) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut tcap, mut tpar, mut tq) = (Vec::new(), Vec::new(), Vec::new());
         for round in 0..rounds {
             let time = |f: &dyn Fn(&Options) -> reckon::Result<reckon::Solution<nalgebra::Dyn>>| {
                 let t0 = cpu();
@@ -85,8 +148,16 @@ fn main() {
                 let r = time(&rebuilt_solve);
                 (time(&kept_solve), r)
             };
+            // the cost of one request alone: record the body, look up, copy
+            let t0 = cpu();
+            let _ = reckon::System::sparse_jacobian(&kept, 2 * n);
+            tq.push(cpu() - t0);
+            tcap.push(captured_solve(round).0);
+            tpar.push(param_solve(round).0);
             symbolic::clear_cache();
             tc.push(time(&rebuilt_solve));
+            // the parameterised body back in the cache (untimed)
+            let _ = param_solve(rounds + 7);
             tk.push(k);
             tr.push(r);
             ratio.push(r / k);
@@ -94,6 +165,7 @@ fn main() {
         let after = symbolic::cache_stats();
         let steps = reference.stats.accepted;
         let (k, r, c, q) = (stats(&mut tk), stats(&mut tr), stats(&mut tc), stats(&mut ratio));
+        let (cap, par, req) = (stats(&mut tcap), stats(&mut tpar), stats(&mut tq));
         println!("rtol = atol = {tol:e} ({steps} steps), CPU ms per solve, min / median / max:");
         println!(
             "  kept                     {:8.2} {:8.2} {:8.2}",
@@ -112,6 +184,24 @@ fn main() {
             c.0 * 1e3,
             c.1 * 1e3,
             c.2 * 1e3
+        );
+        println!(
+            "  rebuilt, another captured α {:7.2} {:8.2} {:8.2}",
+            cap.0 * 1e3,
+            cap.1 * 1e3,
+            cap.2 * 1e3
+        );
+        println!(
+            "  rebuilt, another parameter α {:6.2} {:8.2} {:8.2}",
+            par.0 * 1e3,
+            par.1 * 1e3,
+            par.2 * 1e3
+        );
+        println!(
+            "  one sparse_jacobian request {:7.3} {:8.3} {:8.3}",
+            req.0 * 1e3,
+            req.1 * 1e3,
+            req.2 * 1e3
         );
         println!("  rebuilt ÷ kept, same round {:6.3} {:6.3} {:6.3}", q.0, q.1, q.2);
         println!(

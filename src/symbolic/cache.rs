@@ -256,6 +256,8 @@ pub(crate) struct Counters {
     pub(crate) records: AtomicUsize,
     pub(crate) traces: AtomicUsize,
     pub(crate) compiles: AtomicUsize,
+    /// Nodes of the last recording (room made for the next).
+    pub(crate) last_nodes: AtomicUsize,
 }
 
 impl Counters {

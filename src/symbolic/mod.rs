@@ -229,7 +229,13 @@ pub(crate) struct Shape<'a> {
 
 /// Record `body` (a model's [`TraceBody`]) for a state of `n`, `m` inputs and the
 /// parameters `p` (as leaves): the graph and the outputs' ids, not yet differentiated.
-fn record_body<D: Dim, B: TraceBody<D>>(body: &B, model: &str, shape: &Shape) -> Result<(Graph, Vec<u32>)>
+/// `capacity`: the number of nodes expected (a model's previous recording).
+fn record_body<D: Dim, B: TraceBody<D>>(
+    body: &B,
+    model: &str,
+    shape: &Shape,
+    capacity: usize,
+) -> Result<(Graph, Vec<u32>)>
 where
     DefaultAllocator: Allocator<D>,
 {
@@ -261,7 +267,7 @@ where
     // with it records a non-finite constant and is refused
     sym::set_plain_time(f64::INFINITY);
     cache::recorded();
-    let recorded = sym::record(&leaves, |syms| {
+    let recorded = sym::record(&leaves, capacity, |syms| {
         let x = OVector::<Sym, D>::from_iterator_generic(D::from_usize(n), U1, syms[..n].iter().copied());
         body.run(syms[n + m], &x, &syms[n..n + m], &syms[n + m + 1..])
             .map(|f| f.iter().map(|s| s.id()).collect::<Vec<u32>>())
@@ -307,7 +313,7 @@ pub(crate) fn trace_body<D: Dim, B: TraceBody<D>>(body: &B, model: &str, shape: 
 where
     DefaultAllocator: Allocator<D>,
 {
-    let (g, f) = record_body(body, model, shape)?;
+    let (g, f) = record_body(body, model, shape, 0)?;
     let n = f.len();
     Ok(Traced::build(g, n, shape.m, shape.p, f, model))
 }
@@ -325,7 +331,9 @@ pub(crate) fn cached_jacobian<D: Dim, B: TraceBody<D>>(
 where
     DefaultAllocator: Allocator<D>,
 {
-    let (g, f) = record_body(body, model, shape)?;
+    let hint = cache::Counters::get(&counters.last_nodes);
+    let (g, f) = record_body(body, model, shape, hint)?;
+    counters.last_nodes.store(g.len(), std::sync::atomic::Ordering::Relaxed);
     let n = f.len();
     let (jac, outcome) = cache::compiled_jacobian(g, f, (n, shape.m, shape.p), |g, f| {
         Traced::build(g, n, shape.m, shape.p, f, model).compile_jacobian()

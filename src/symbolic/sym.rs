@@ -86,14 +86,19 @@ impl Drop for Recording {
 /// Run `body` on a fresh tape whose first nodes are `leaves` (interned in order) and
 /// return the graph with `body`'s result; `Err` with the first fault, or `Err(None)` when
 /// a recording is already running on this thread (a body that traces inside a trace).
-pub(crate) fn record<R>(leaves: &[Node], body: impl FnOnce(&[Sym]) -> R) -> Result<(Graph, R), Option<Fault>> {
+/// `capacity`: the number of nodes expected (room made up front).
+pub(crate) fn record<R>(
+    leaves: &[Node],
+    capacity: usize,
+    body: impl FnOnce(&[Sym]) -> R,
+) -> Result<(Graph, R), Option<Fault>> {
     let started = TAPE.with(|t| {
         let mut t = t.borrow_mut();
         if t.active {
             return false;
         }
         *t = Tape {
-            g: Graph::new(),
+            g: Graph::with_capacity(capacity),
             active: true,
             fault: None,
         };

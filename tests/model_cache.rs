@@ -126,7 +126,7 @@ fn another_captured_value_traces_again_but_reuses_the_machine_code() {
 }
 
 /// The Brusselator with its coefficients `A`, `B`, `α` as a parameter block.
-fn bruss_params(p: [f64; 3]) -> impl System<Dyn> + reckon::DualSystem<Dyn> {
+fn bruss_params(p: [f64; 3]) -> impl reckon::DualSystem<Dyn> {
     model!(|_, y: [S; Dyn], p: [S; 3] = p| {
         let n = y.len() / 2;
         let c = p[2].clone() * ((n as f64 + 1.0) * (n as f64 + 1.0));
@@ -199,8 +199,7 @@ fn a_captured_cell_is_read_afresh_never_stale() {
     // issue 38: J[0,0] must follow the Cell, not keep its value at the first trace
     let k = Cell::new(3.0);
     let kr = &k;
-    let f =
-        model!(|_, x: [S; Dyn]| { DVector::from_fn(x.len(), |i, _| x[i].clone() * -kr.get() - x[i].powi(2) * 0.005) });
+    let f = model!(|_, x: [S; Dyn]| DVector::from_fn(x.len(), |i, _| x[i].clone() * -kr.get() - x[i].powi(2) * 0.005));
     let n = 80;
     let x = DVector::from_element(n, 1.0);
     let j1 = sparse_dense(&mut *f.sparse_jacobian(n).unwrap(), 0.0, x.as_slice());
@@ -232,7 +231,7 @@ fn a_captured_cell_is_read_afresh_never_stale() {
     let fresh_k = Cell::new(3000.0);
     let fr = &fresh_k;
     let fresh =
-        model!(|_, x: [S; Dyn]| { DVector::from_fn(x.len(), |i, _| x[i].clone() * -fr.get() - x[i].powi(2) * 0.005) });
+        model!(|_, x: [S; Dyn]| DVector::from_fn(x.len(), |i, _| x[i].clone() * -fr.get() - x[i].powi(2) * 0.005));
     let reference = Problem::new(&fresh, x0, (0.0, 1.0))
         .solve(Rodas5P::default(), &o)
         .unwrap();

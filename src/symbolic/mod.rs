@@ -331,7 +331,11 @@ pub(crate) fn cached_jacobian<D: Dim, B: TraceBody<D>>(
 where
     DefaultAllocator: Allocator<D>,
 {
-    let hint = cache::Counters::get(&counters.last_nodes);
+    // the model's last recording, or a guess for a new model (a rebuilt one)
+    let hint = match cache::Counters::get(&counters.last_nodes) {
+        0 => 16 * shape.n + 64,
+        last => last,
+    };
     let (g, f) = record_body(body, model, shape, hint)?;
     counters.last_nodes.store(g.len(), std::sync::atomic::Ordering::Relaxed);
     let n = f.len();

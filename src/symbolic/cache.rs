@@ -57,7 +57,7 @@
 //! // a chain x_i' = −k·x_i + x_{i+1} (k a parameter): built twice with other values
 //! let build = |k: f64| model!(|_, x: [S; Dyn], p: [S; 1] = [k]| {
 //!     let n = x.len();
-//!     DVector::from_fn(n, |i, _| -(p[0] * x[i]) + if i + 1 < n { x[i + 1].clone() } else { S::from(0.0) })
+//!     DVector::from_fn(n, |i, _| -(p[0].clone() * x[i].clone()) + if i + 1 < n { x[i + 1].clone() } else { S::from(0.0) })
 //! });
 //! let (a, b) = (build(2.0), build(3.0));
 //! let mut ja = a.sparse_jacobian(70).unwrap();

@@ -45,7 +45,7 @@ pub use num_dual;
 pub mod __private {
     pub use crate::lhs::Lhs;
     pub use num_traits::Signed;
-    pub use reckon_macros::lift_literals;
+    pub use reckon_macros::{lift_literals, mentions};
 
     /// `vector!`: an array as a column vector.
     pub fn vector_from<T: nalgebra::Scalar, const N: usize>(a: [T; N]) -> nalgebra::SVector<T, N> {

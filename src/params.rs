@@ -29,17 +29,20 @@ use std::marker::PhantomData;
 /// g.jacobian(0.0, &vector![2.0], &[], &mut j);
 /// assert_eq!((dx[0], j[(0, 0)]), (-6.0, -3.0));
 /// ```
-pub struct ParamModel<D, M, F, G, T = NoTimeDerivative, Q = NoParamsTangent> {
+pub struct ParamModel<D, M, F, G, T = NoTimeDerivative, Q = NoParamsTangent, Tr = crate::symbolic::NoTrace> {
     inputs: usize,
     params: Vec<f64>,
     f: F,
     g: G,
     dt: T,
     pt: Q,
+    tr: Tr,
+    /// What [`System::sparse_jacobian`] did: recordings, traces, compiles.
+    counters: crate::symbolic::cache::Counters,
     _dim: PhantomData<(D, M)>,
 }
 
-impl<D, M, F: Clone, G: Clone, T: Clone, Q: Clone> Clone for ParamModel<D, M, F, G, T, Q> {
+impl<D, M, F: Clone, G: Clone, T: Clone, Q: Clone, Tr: Clone> Clone for ParamModel<D, M, F, G, T, Q, Tr> {
     fn clone(&self) -> Self {
         ParamModel {
             inputs: self.inputs,
@@ -48,6 +51,8 @@ impl<D, M, F: Clone, G: Clone, T: Clone, Q: Clone> Clone for ParamModel<D, M, F,
             g: self.g.clone(),
             dt: self.dt.clone(),
             pt: self.pt.clone(),
+            tr: self.tr.clone(),
+            counters: Default::default(),
             _dim: PhantomData,
         }
     }
@@ -64,14 +69,16 @@ impl<D, M, F, G> ParamModel<D, M, F, G> {
             g,
             dt: NoTimeDerivative,
             pt: NoParamsTangent,
+            tr: crate::symbolic::NoTrace,
+            counters: Default::default(),
             _dim: PhantomData,
         }
     }
 }
 
-impl<D, M, F, G, T, Q> ParamModel<D, M, F, G, T, Q> {
+impl<D, M, F, G, T, Q, Tr> ParamModel<D, M, F, G, T, Q, Tr> {
     /// The same model with `∂f/∂t` given by `dt` (`model!` gives [`Autonomous`](crate::system::Autonomous) for `|_, …|`).
-    pub fn with_time_derivative<T2>(self, dt: T2) -> ParamModel<D, M, F, G, T2, Q> {
+    pub fn with_time_derivative<T2>(self, dt: T2) -> ParamModel<D, M, F, G, T2, Q, Tr> {
         ParamModel {
             inputs: self.inputs,
             params: self.params,
@@ -79,12 +86,73 @@ impl<D, M, F, G, T, Q> ParamModel<D, M, F, G, T, Q> {
             g: self.g,
             dt,
             pt: self.pt,
+            tr: self.tr,
+            counters: self.counters,
             _dim: PhantomData,
         }
     }
+    /// The same model with a copy of its body on the tracing scalar, the parameters traced
+    /// as leaves `pₖ` ([`TraceParamsFn`](crate::symbolic::TraceParamsFn)), which gives its
+    /// symbolic forms and its compiled sparse Jacobian. [`model!`](crate::model) does this.
+    pub fn with_trace<Tr2>(self, tr: Tr2) -> ParamModel<D, M, F, G, T, Q, Tr2> {
+        ParamModel {
+            inputs: self.inputs,
+            params: self.params,
+            f: self.f,
+            g: self.g,
+            dt: self.dt,
+            pt: self.pt,
+            tr,
+            counters: Default::default(),
+            _dim: PhantomData,
+        }
+    }
+    /// How many times [`System::sparse_jacobian`] traced the body (recorded it and
+    /// differentiated and flattened it: no equal recording was in the compiled-program
+    /// cache, [`crate::symbolic::cache`]). Parameters are leaves of the recording, so a model
+    /// rebuilt with other parameter values traces 0 times.
+    ///
+    /// ```
+    /// use reckon::{model, System};
+    /// use nalgebra::DVector;
+    /// let build = |k: f64| model!(|_, x: [S; Dyn], p: [S; 1] = [k]| DVector::from_fn(x.len(), |i, _| x[i].sin() * p[0].clone()));
+    /// let _ = build(2.0).sparse_jacobian(71).unwrap();
+    /// let other = build(5.0);
+    /// let _ = other.sparse_jacobian(71).unwrap();
+    /// assert_eq!((other.records(), other.traces(), other.compiles()), (1, 0, 0));
+    /// ```
+    pub fn traces(&self) -> usize {
+        crate::symbolic::cache::Counters::get(&self.counters.traces)
+    }
+    /// How many times [`System::sparse_jacobian`] recorded the body (once per call).
+    ///
+    /// ```
+    /// use reckon::{model, System};
+    /// use nalgebra::DVector;
+    /// let f = model!(|_, x: [S; Dyn], p: [S; 1] = [0.5]| DVector::from_fn(x.len(), |i, _| x[i].cos() * p[0].clone()));
+    /// let _ = f.sparse_jacobian(72).unwrap();
+    /// assert_eq!(f.records(), 1);
+    /// ```
+    pub fn records(&self) -> usize {
+        crate::symbolic::cache::Counters::get(&self.counters.records)
+    }
+    /// How many times [`System::sparse_jacobian`] generated native code for this model (0
+    /// when a program of the same shape was compiled before).
+    ///
+    /// ```
+    /// use reckon::{model, System};
+    /// use nalgebra::DVector;
+    /// let f = model!(|_, x: [S; Dyn], p: [S; 1] = [0.25]| DVector::from_fn(x.len(), |i, _| x[i].exp() * p[0].clone()));
+    /// let _ = f.sparse_jacobian(73).unwrap();
+    /// let _ = f.sparse_jacobian(73).unwrap();
+    /// assert!(f.compiles() <= 1);
+    /// ```
+    pub fn compiles(&self) -> usize {
+        crate::symbolic::cache::Counters::get(&self.counters.compiles)
+    }
     /// The same model with a copy of the body at `n_p` directions for the sensitivities to
     /// the parameters alone ([`ParamsBody`]; `model!` gives it to a fixed-size model).
-    pub fn with_params_tangent<Q2>(self, pt: Q2) -> ParamModel<D, M, F, G, T, Q2> {
+    pub fn with_params_tangent<Q2>(self, pt: Q2) -> ParamModel<D, M, F, G, T, Q2, Tr> {
         ParamModel {
             inputs: self.inputs,
             params: self.params,
@@ -92,6 +160,8 @@ impl<D, M, F, G, T, Q> ParamModel<D, M, F, G, T, Q> {
             g: self.g,
             dt: self.dt,
             pt,
+            tr: self.tr,
+            counters: self.counters,
             _dim: PhantomData,
         }
     }
@@ -120,15 +190,47 @@ impl<D, M, F, G, T, Q> ParamModel<D, M, F, G, T, Q> {
     }
 }
 
-impl<D, M, F, G, T, Q> System<D> for ParamModel<D, M, F, G, T, Q>
+impl<D, M, F, G, T, Q, Tr> System<D> for ParamModel<D, M, F, G, T, Q, Tr>
 where
     D: Dim,
     M: Dim,
     F: Fn(f64, &OVector<f64, D>, &[f64], &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<M>, D>, &[f64], &[DualVec64<M>]) -> OVector<DualVec64<M>, D>,
     T: TimeDerivative<D>,
+    Tr: crate::symbolic::TraceBody<D>,
     DefaultAllocator: Allocator<D> + Allocator<M>,
 {
+    fn trace_counts(&self) -> crate::symbolic::TraceCounts {
+        self.counters.counts()
+    }
+    /// The traced body, the parameters as the leaves `pₖ` at their current values.
+    fn symbolic(&self, n: usize) -> Option<Result<crate::symbolic::Traced>> {
+        let shape = crate::symbolic::Shape {
+            n,
+            m: self.inputs,
+            p: &self.params,
+        };
+        self.tr
+            .traceable()
+            .then(|| crate::symbolic::trace_body(&self.tr, &crate::system::model_name::<F>(), &shape))
+    }
+    /// The compiled symbolic Jacobian (from the compiled-program cache,
+    /// [`crate::symbolic::cache`]: the parameters are inputs of the compiled code, so other
+    /// parameter values reuse it), `None` when the body cannot be traced (the implicit
+    /// methods then use the dense num-dual [`jacobian`](System::jacobian)).
+    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
+        if !self.tr.traceable() {
+            return None;
+        }
+        let shape = crate::symbolic::Shape {
+            n,
+            m: self.inputs,
+            p: &self.params,
+        };
+        crate::symbolic::cached_jacobian(&self.tr, &crate::system::model_name::<F>(), &shape, &self.counters)
+            .ok()
+            .map(|c| Box::new(c) as Box<dyn crate::sparse::SparseJacobian>)
+    }
     fn inputs(&self) -> usize {
         self.inputs
     }
@@ -154,7 +256,7 @@ where
     }
 }
 
-impl<D, M, F, G, T, Q> crate::DualSystem<D> for ParamModel<D, M, F, G, T, Q>
+impl<D, M, F, G, T, Q, Tr> crate::DualSystem<D> for ParamModel<D, M, F, G, T, Q, Tr>
 where
     D: Dim,
     M: Dim,
@@ -162,6 +264,7 @@ where
     G: Fn(f64, &OVector<DualVec64<M>, D>, &[f64], &[DualVec64<M>]) -> OVector<DualVec64<M>, D>,
     T: TimeDerivative<D>,
     Q: ParamsTangent<D>,
+    Tr: crate::symbolic::TraceBody<D>,
     DefaultAllocator: Allocator<D> + Allocator<M> + Allocator<U1, D>,
 {
     /// `f` at dual `x` (`n` directions): the body at `M` directions with `x`'s derivative

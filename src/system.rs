@@ -68,6 +68,20 @@ where
     fn symbolic(&self, _n: usize) -> Option<Result<crate::symbolic::Traced>> {
         None
     }
+    /// What this model's [`sparse_jacobian`](Self::sparse_jacobian) calls did with the
+    /// compiled-program cache ([`crate::symbolic::cache`]): bodies recorded, traced and
+    /// compiled. All zero (the default) for a model that is not traced.
+    ///
+    /// ```
+    /// use reckon::{problems::brusselator, System};
+    /// let f = brusselator(40);
+    /// let _ = f.sparse_jacobian(80).unwrap();
+    /// assert_eq!(f.trace_counts().records, 1);
+    /// assert!(f.trace_counts().traces <= 1); // 0 when another brusselator(40) was traced before
+    /// ```
+    fn trace_counts(&self) -> crate::symbolic::TraceCounts {
+        crate::symbolic::TraceCounts::default()
+    }
 }
 
 impl<D: Dim, T: System<D> + ?Sized> System<D> for &T
@@ -96,6 +110,9 @@ where
     fn symbolic(&self, n: usize) -> Option<Result<crate::symbolic::Traced>> {
         (**self).symbolic(n)
     }
+    fn trace_counts(&self) -> crate::symbolic::TraceCounts {
+        (**self).trace_counts()
+    }
     fn jacobian_blocks(&self) -> Option<usize> {
         (**self).jacobian_blocks()
     }
@@ -112,12 +129,8 @@ pub struct ClosureModel<D, F, G, T = NoTimeDerivative, Tr = crate::symbolic::NoT
     g: G,
     dt: T,
     tr: Tr,
-    /// The compiled symbolic Jacobian of the first [`System::sparse_jacobian`] call (for
-    /// that state size; `None` inside when the body cannot be traced), reused by later
-    /// solves instead of tracing again.
-    compiled: std::sync::OnceLock<(usize, Option<crate::symbolic::CompiledJacobian>)>,
-    /// How many times the body was traced for `sparse_jacobian`.
-    traces: std::sync::atomic::AtomicUsize,
+    /// What [`System::sparse_jacobian`] did: recordings, traces, compiles.
+    counters: crate::symbolic::cache::Counters,
     _dim: PhantomData<D>,
 }
 
@@ -129,8 +142,7 @@ impl<D, F: Clone, G: Clone, T: Clone, Tr: Clone> Clone for ClosureModel<D, F, G,
             g: self.g.clone(),
             dt: self.dt.clone(),
             tr: self.tr.clone(),
-            compiled: self.compiled.clone(),
-            traces: std::sync::atomic::AtomicUsize::new(0),
+            counters: Default::default(),
             _dim: PhantomData,
         }
     }
@@ -146,8 +158,7 @@ impl<D, F, G> ClosureModel<D, F, G> {
             g,
             dt: NoTimeDerivative,
             tr: crate::symbolic::NoTrace,
-            compiled: std::sync::OnceLock::new(),
-            traces: std::sync::atomic::AtomicUsize::new(0),
+            counters: Default::default(),
             _dim: PhantomData,
         }
     }
@@ -163,8 +174,7 @@ impl<D, F, G, T, Tr> ClosureModel<D, F, G, T, Tr> {
             g: self.g,
             dt,
             tr: self.tr,
-            compiled: self.compiled,
-            traces: self.traces,
+            counters: self.counters,
             _dim: PhantomData,
         }
     }
@@ -179,23 +189,62 @@ impl<D, F, G, T, Tr> ClosureModel<D, F, G, T, Tr> {
             g: self.g,
             dt: self.dt,
             tr,
-            compiled: std::sync::OnceLock::new(),
-            traces: std::sync::atomic::AtomicUsize::new(0),
+            counters: Default::default(),
             _dim: PhantomData,
         }
     }
 }
 
 impl<D, F, G, T, Tr> ClosureModel<D, F, G, T, Tr> {
-    /// How many times [`System::sparse_jacobian`] traced the body (the first call traces and
-    /// compiles, later calls for the same state size reuse the compiled Jacobian).
+    /// How many times [`System::sparse_jacobian`] traced the body: recorded it *and*
+    /// differentiated and flattened it, because no equal recording was in the compiled-program
+    /// cache ([`crate::symbolic::cache`]). A model rebuilt with the same structure traces 0 times.
+    ///
+    /// ```
+    /// use reckon::{model, System};
+    /// use nalgebra::DVector;
+    /// let f = model!(|_, x: [S; Dyn]| DVector::from_fn(x.len(), |i, _| x[i].tanh() * 0.375));
+    /// let _ = f.sparse_jacobian(67).unwrap();
+    /// let again = model!(|_, x: [S; Dyn]| DVector::from_fn(x.len(), |i, _| x[i].tanh() * 0.375));
+    /// let _ = again.sparse_jacobian(67).unwrap();
+    /// assert_eq!((again.records(), again.traces(), again.compiles()), (1, 0, 0));
+    /// ```
     pub fn traces(&self) -> usize {
-        self.traces.load(std::sync::atomic::Ordering::Relaxed)
+        crate::symbolic::cache::Counters::get(&self.counters.traces)
+    }
+    /// How many times [`System::sparse_jacobian`] recorded the body on the tracing scalar
+    /// (once per call: the recording is the cache's key, so a captured value that changed
+    /// is always seen).
+    ///
+    /// ```
+    /// use reckon::{model, System};
+    /// use nalgebra::DVector;
+    /// let f = model!(|_, x: [S; Dyn]| DVector::from_fn(x.len(), |i, _| x[i].atan() * 0.625));
+    /// let _ = f.sparse_jacobian(68).unwrap();
+    /// let _ = f.sparse_jacobian(68).unwrap();
+    /// assert_eq!(f.records(), 2);
+    /// ```
+    pub fn records(&self) -> usize {
+        crate::symbolic::cache::Counters::get(&self.counters.records)
+    }
+    /// How many times [`System::sparse_jacobian`] generated native code (Cranelift) for
+    /// this model: 0 when a program of the same shape was compiled before.
+    ///
+    /// ```
+    /// use reckon::{model, System};
+    /// use nalgebra::DVector;
+    /// let f = model!(|_, x: [S; Dyn]| DVector::from_fn(x.len(), |i, _| x[i].sinh() * 0.875));
+    /// let _ = f.sparse_jacobian(69).unwrap();
+    /// let _ = f.sparse_jacobian(69).unwrap();
+    /// assert!(f.compiles() <= 1); // at most the first call compiled
+    /// ```
+    pub fn compiles(&self) -> usize {
+        crate::symbolic::cache::Counters::get(&self.counters.compiles)
     }
 }
 
 /// The model's name for messages: the path of the function whose body defined it.
-fn model_name<F>() -> String {
+pub(crate) fn model_name<F>() -> String {
     let name = std::any::type_name::<F>();
     name.strip_suffix("::{{closure}}").unwrap_or(name).to_string()
 }
@@ -298,32 +347,40 @@ where
     fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
         self.dt.time_derivative(t, x, u, dfdt)
     }
+    fn trace_counts(&self) -> crate::symbolic::TraceCounts {
+        self.counters.counts()
+    }
     fn symbolic(&self, n: usize) -> Option<Result<crate::symbolic::Traced>> {
+        let shape = crate::symbolic::Shape {
+            n,
+            m: self.inputs,
+            p: &[],
+        };
         self.tr
             .traceable()
-            .then(|| crate::symbolic::trace_body(&self.tr, &model_name::<F>(), n, self.inputs))
+            .then(|| crate::symbolic::trace_body(&self.tr, &model_name::<F>(), &shape))
     }
     /// The compiled symbolic Jacobian when the body can be traced; for a `DVector` body that
     /// cannot be (its control flow depends on the state or on a plain-f64 time), num-dual
     /// with a column colouring of the pattern detected from the body
     /// ([`ColourDim`](crate::sparse::colour::ColourDim)).
     ///
-    /// The compiled Jacobian is traced once and kept in the model, so later solves of the
-    /// same size (and clones made after the first solve) skip the trace.
+    /// Every call records the body on the tracing scalar and takes the compiled Jacobian of
+    /// an equal recording from the compiled-program cache ([`crate::symbolic::cache`]), so a
+    /// model kept or rebuilt with the same structure skips the differentiation and the
+    /// compile, and one whose captured values changed is traced afresh.
     fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
-        let compile = || {
-            if !self.tr.traceable() {
-                return None;
+        if self.tr.traceable() {
+            let shape = crate::symbolic::Shape {
+                n,
+                m: self.inputs,
+                p: &[],
+            };
+            if let Ok(c) = crate::symbolic::cached_jacobian(&self.tr, &model_name::<F>(), &shape, &self.counters) {
+                return Some(Box::new(c));
             }
-            self.traces.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            self.symbolic(n).and_then(|r| r.ok()).map(|tr| tr.compile_jacobian())
-        };
-        let cached = self.compiled.get_or_init(|| (n, compile()));
-        let compiled = if cached.0 == n { cached.1.clone() } else { compile() };
-        match compiled {
-            Some(c) => Some(Box::new(c)),
-            None => D::coloured(&self.g, n, self.inputs),
         }
+        D::coloured(&self.g, n, self.inputs)
     }
 }
 
@@ -708,7 +765,8 @@ macro_rules! model {
                   -> $crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $np }>, { $n }> {
                 $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualSVec64<{ $np }>, $body)
             },
-        )))
+        ))
+        .with_trace($crate::model!(@ptrace $mode, $crate::nalgebra::SVector<$crate::symbolic::Sym, { $n }>, $t, $x, $s, $u, $p, $body)))
     }};
     (@pdyn $mode:ident, $m:expr, $t:tt, $x:ident, $s:ident, $u:tt, $p:ident, $np:expr, $pv:tt, $body:expr) => {{
         let __pv: [f64; $np] = $pv;
@@ -727,8 +785,29 @@ macro_rules! model {
                   -> $crate::nalgebra::DVector<$crate::num_dual::DualDVec64> {
                 $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualDVec64, $body)
             },
-        ))
+        )
+        .with_trace($crate::model!(@ptrace $mode, $crate::nalgebra::DVector<$crate::symbolic::Sym>, $t, $x, $s, $u, $p, $body)))
     }};
+    (@ptrace $mode:ident, $vec:ty, $t:tt, $x:ident, $s:ident, $u:tt, $p:ident, $body:expr) => {
+        $crate::symbolic::TraceParamsFn::new(
+            $crate::model!(@plain $mode, $t, $body),
+            #[allow(unused_variables, clippy::clone_on_copy)]
+            move |__t: $crate::symbolic::Sym,
+                  $x: &$vec,
+                  $u: &[$crate::symbolic::Sym],
+                  $p: &[$crate::symbolic::Sym]|
+                  -> $vec {
+                #[allow(unused_imports)]
+                use $crate::num_dual::DualNum as _;
+                #[allow(unused_imports)]
+                use $crate::__private::Signed as _;
+                #[allow(dead_code)]
+                type $s = $crate::symbolic::Sym;
+                $crate::model!(@ttrace $mode, $t, $s, __t);
+                $crate::__private::lift_literals!($crate, $body)
+            },
+        )
+    };
     // typed time `t: S`: exact ∂f/∂t from a third instantiation at Dual64
     (|$t:tt : $ts:ident, $x:ident : [$s:ident; Dyn]| $body:expr) => {
         $crate::model!(@dyn typed, 0, $t, $x, $s, _, $body)
@@ -783,18 +862,20 @@ macro_rules! model {
     (@tlet plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
     (@tlet auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $v; };
     (@tlet typed, $t:tt, $s:ident, $v:expr) => { let $t: $s = <$s>::from($v); };
-    // how the traced copy sees t: ±∞ (plain: a body that computes with it records a
-    // non-finite constant, one that branches on it two different graphs; both are refused)
-    // or the time symbol (typed)
+    // how the traced copy sees t: +∞ (plain or `_`: a body that names a plain `t` is
+    // refused before it runs, so this is only a guard against a hidden use, which records
+    // a non-finite constant and is refused) or the time symbol (typed)
     (@ttrace plain, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $crate::symbolic::plain_time(); };
     (@ttrace auto, $t:tt, $s:ident, $v:expr) => { let $t: f64 = $crate::symbolic::plain_time(); };
     (@ttrace typed, $t:tt, $s:ident, $v:expr) => { let $t: $s = $v; };
-    (@plain plain) => { true };
-    (@plain auto) => { false };
-    (@plain typed) => { false };
+    // whether the body reads a plain-f64 time (its name occurs in the body): the trace
+    // refuses such a body, whose branches on `t` it could record for one time only
+    (@plain plain, $t:tt, $body:expr) => { $crate::__private::mentions!($t, $body) };
+    (@plain auto, $t:tt, $body:expr) => { false };
+    (@plain typed, $t:tt, $body:expr) => { false };
     (@trace $mode:ident, $vec:ty, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
         $crate::symbolic::TraceFn::new(
-            $crate::model!(@plain $mode),
+            $crate::model!(@plain $mode, $t, $body),
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: $crate::symbolic::Sym, $x: &$vec, $u: &[$crate::symbolic::Sym]| -> $vec {
                 #[allow(unused_imports)]

@@ -311,7 +311,7 @@ fn traced_model_takes_the_sparse_path() {
     let m = 8;
     let f8 = brusselator_2d(m);
     match reckon::symbolic::trace(&f8, 2 * m * m) {
-        Err(Error::Untraceable { reason, .. }) => assert!(reason.contains("branches on its time"), "{reason}"),
+        Err(Error::Untraceable { reason, .. }) => assert!(reason.contains("reads its time"), "{reason}"),
         other => panic!("{other:?}"),
     }
     let g = |t: f64, x: &DVector<DualDVec64>, u: &[f64]| reckon::DualSystem::rhs_dual(&f8, t, x, u);

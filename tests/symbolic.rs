@@ -226,7 +226,7 @@ fn state_dependent_branch_is_the_typed_error_naming_the_model() {
     assert!(matches!(symbolic::trace(&plain, 1), Err(Error::Untraceable { .. })));
     let switched = model!(|t, x: [S; 1]| vector![if t > 1.0 { x[0].clone() * 2.0 } else { x[0].clone() }]);
     match symbolic::trace(&switched, 1) {
-        Err(Error::Untraceable { reason, .. }) => assert!(reason.contains("branches on its time"), "{reason}"),
+        Err(Error::Untraceable { reason, .. }) => assert!(reason.contains("reads its time"), "{reason}"),
         other => panic!("expected Untraceable, got {other:?}"),
     }
     // a plain time the body never reads is no obstacle

@@ -275,3 +275,36 @@ fn lhs_call(krate: &TokenTree, inner: Vec<TokenTree>, span: Span) -> Vec<TokenTr
     v.push(TokenTree::Group(g));
     v
 }
+
+/// `mentions!(name, body)`: `true` when the identifier `name` occurs anywhere in `body`
+/// (inside groups and macro calls too), `false` otherwise. `model!` asks it whether a body
+/// reads its plain-`f64` time: a body that never names `t` cannot depend on it (a local
+/// variable is reachable only by its name), one that does is refused by the trace.
+#[proc_macro]
+pub fn mentions(input: TokenStream) -> TokenStream {
+    let mut it = input.into_iter();
+    let name = match it.next() {
+        Some(TokenTree::Ident(i)) => i.to_string(),
+        // `_` (no name) cannot be read
+        Some(TokenTree::Punct(p)) if p.as_char() == '_' => String::new(),
+        Some(TokenTree::Group(g)) if g.delimiter() == Delimiter::None => match g.stream().into_iter().next() {
+            Some(TokenTree::Ident(i)) => i.to_string(),
+            _ => String::new(),
+        },
+        _ => return error("mentions!: expected `name, body`"),
+    };
+    match it.next() {
+        Some(TokenTree::Punct(p)) if p.as_char() == ',' => {}
+        _ => return error("mentions!: expected `name, body`"),
+    }
+    let found = !name.is_empty() && name != "_" && occurs(it.collect(), &name);
+    TokenTree::Ident(Ident::new(if found { "true" } else { "false" }, Span::call_site())).into()
+}
+
+fn occurs(stream: TokenStream, name: &str) -> bool {
+    stream.into_iter().any(|tt| match tt {
+        TokenTree::Ident(i) => i.to_string() == name,
+        TokenTree::Group(g) => occurs(g.stream(), name),
+        _ => false,
+    })
+}

@@ -1,18 +1,21 @@
 //! The compiled evaluator: the part of the graph the requested expressions need,
 //! flattened in topological order into a list of three-address instructions over one
-//! array of `f64` slots (constants first, then one slot per instruction; reading a state,
-//! an input or the time is an instruction too). Running it is a single pass with no
+//! array of `f64` slots (constants and parameters first, then one slot per instruction;
+//! reading a state, an input or the time is an instruction too). The constant slots are
+//! data, not code: the instructions (and the native code made from them) read them from
+//! the array, so one instruction list serves every model that differs only in their
+//! values (see [`super::cache`]). Running it is a single pass with no
 //! allocation and no hashing: one flat opcode per instruction, so the dispatch is one
 //! jump table, and `sin a` with `cos a` of the same `a` is one `sin_cos`.
 
 use super::graph::{Func, Graph, Node};
-use super::jit::{self, Layout, Native};
+use super::jit::{Layout, Native};
 use crate::sparse::{Pattern, SparseJacobian};
 use std::collections::HashMap;
 use std::sync::Arc;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(super) enum Op {
+pub(crate) enum Op {
     /// `d ← x[a]`
     LoadX,
     /// `d ← u[a]`
@@ -85,8 +88,8 @@ impl Op {
     }
 }
 
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Ins {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) struct Ins {
     pub op: Op,
     /// destination slot
     pub d: u32,
@@ -97,8 +100,13 @@ pub(super) struct Ins {
 /// A flattened evaluator of some nodes of a graph.
 #[derive(Debug, Clone)]
 pub struct Program {
-    /// Slot values with the constants in place (the other slots are overwritten).
+    /// Slot values with the constants in place (the other slots are overwritten): slots
+    /// `0..consts` hold the constants and parameters, the rest the instructions' results.
     template: Vec<f64>,
+    /// Number of constant slots (constants, exponents and parameters) at the front.
+    consts: usize,
+    /// `(k, slot)`: parameter `pₖ` lives in constant slot `slot`.
+    params: Vec<(u32, u32)>,
     /// One more than the largest state and input index read.
     min_x: usize,
     min_u: usize,
@@ -107,8 +115,9 @@ pub struct Program {
 }
 
 impl Program {
-    /// The program that evaluates `roots` of `g`.
-    pub(crate) fn new(g: &Graph, roots: &[u32]) -> Program {
+    /// The program that evaluates `roots` of `g`, the parameters `pₖ` set to `p[k]`
+    /// (NaN where `p` has no value).
+    pub(crate) fn new(g: &Graph, roots: &[u32], p: &[f64]) -> Program {
         let len = g.len();
         let reach = g.reachable(roots);
         let mut slot = vec![u32::MAX; len];
@@ -116,6 +125,7 @@ impl Program {
         // constants, and the exponents of powi and powf, each in a constant slot
         let mut exp_slot = HashMap::new();
         let (mut sin_of, mut cos_of) = (HashMap::new(), HashMap::new());
+        let mut params = Vec::new();
         for id in 0..len {
             if !reach[id] {
                 continue;
@@ -124,6 +134,12 @@ impl Program {
                 Node::Const(b) => {
                     slot[id] = template.len() as u32;
                     template.push(f64::from_bits(b));
+                    continue;
+                }
+                Node::Param(k) => {
+                    slot[id] = template.len() as u32;
+                    params.push((k, slot[id]));
+                    template.push(p.get(k as usize).copied().unwrap_or(f64::NAN));
                     continue;
                 }
                 Node::F(Func::Sin, a) => {
@@ -143,6 +159,7 @@ impl Program {
                 (template.len() - 1) as u32
             });
         }
+        let consts = template.len();
         // `−(a·b)` is one instruction when the product has no other use
         let mut users = vec![0u32; len];
         let mut negated = vec![false; len];
@@ -184,6 +201,7 @@ impl Program {
                     (Op::LoadU, own, k, 0)
                 }
                 Node::Time => (Op::LoadT, own, 0, 0),
+                Node::Const(_) | Node::Param(_) => unreachable!("constant slots are filled above"),
                 Node::Neg(m) => match g.node(m) {
                     Node::Mul(p, q) if users[m as usize] == 1 && fused[m as usize] => {
                         // the product was not emitted: `−(p·q)` in one
@@ -218,7 +236,6 @@ impl Program {
                     }
                 }
                 Node::F(f, _) => (Op::func(f), own, a, b),
-                Node::Const(_) => unreachable!(),
             };
             if let Node::Mul(..) = node {
                 // a product whose one user is a negation is left to that negation
@@ -234,6 +251,8 @@ impl Program {
         let outputs = roots.iter().map(|&r| slot[r as usize]).collect();
         let p = Program {
             template,
+            consts,
+            params,
             min_x,
             min_u,
             ins,
@@ -251,7 +270,10 @@ impl Program {
         let mut written = vec![true; n];
         for i in &self.ins {
             for s in [Some(i.d), (i.op == Op::SinCos).then_some(i.b)].into_iter().flatten() {
-                assert!((s as usize) < n, "symbolic: slot out of range");
+                assert!(
+                    (s as usize) < n && s as usize >= self.consts,
+                    "symbolic: slot out of range"
+                );
                 written[s as usize] = false;
             }
         }
@@ -286,6 +308,19 @@ impl Program {
     #[cfg_attr(not(feature = "jit"), allow(dead_code))]
     pub(super) fn parts(&self) -> (&[f64], &[Ins], &[u32]) {
         (&self.template, &self.ins, &self.outputs)
+    }
+
+    /// Number of constant slots (at the front of the template).
+    #[cfg_attr(not(feature = "jit"), allow(dead_code))]
+    pub(super) fn consts(&self) -> usize {
+        self.consts
+    }
+
+    /// Set the parameters `pₖ ← p[k]` in their constant slots.
+    pub(super) fn set_params(&mut self, p: &[f64]) {
+        for &(k, s) in &self.params {
+            self.template[s as usize] = p.get(k as usize).copied().unwrap_or(f64::NAN);
+        }
     }
 
     /// Number of instructions.
@@ -436,7 +471,7 @@ impl CompiledJacobian {
                 zeros: (0..n * n).filter(|&d| !nz[d]).collect(),
             });
         }
-        let native = jit::compile(&program, &layouts);
+        let native = super::cache::native_code(&program, &layouts);
         CompiledJacobian {
             csc: vec![0.0; if native.is_some() { pattern.nnz() } else { 0 }],
             pattern,
@@ -447,12 +482,29 @@ impl CompiledJacobian {
         }
     }
 
+    /// The same compiled Jacobian with the parameters `pₖ ← p[k]` (a model's parameter
+    /// block: inputs of the compiled code, so no new trace or compile).
+    pub(crate) fn set_params(&mut self, p: &[f64]) {
+        self.program.set_params(p);
+        let k = self.program.consts;
+        self.vals[..k].copy_from_slice(&self.program.template[..k]);
+    }
+
     /// The same Jacobian evaluated by the interpreter only (to compare, or to save the
     /// native code's memory).
     pub fn interpreted(mut self) -> Self {
         self.native = None;
         self.csc = Vec::new();
         self
+    }
+
+    /// Approximate heap bytes this Jacobian holds (its native code not counted).
+    pub(crate) fn bytes(&self) -> usize {
+        let p = &self.program;
+        8 * (p.template.len() + self.vals.len() + self.csc.len() + self.pattern.nnz() + self.pattern.n())
+            + std::mem::size_of::<Ins>() * p.ins.len()
+            + 4 * p.outputs.len()
+            + 16 * self.dense.len()
     }
 
     /// Whether evaluation runs native code.
@@ -478,8 +530,18 @@ impl CompiledJacobian {
         // SAFETY: the code reads `x[i]` for `i < min_x ≤ x.len()` and `u[k]` for
         // `k < min_u ≤ u.len()` (checked above), and writes `out[d]` for the layout's
         // offsets: `d < nnz` for function 0 and `d < n²` for function 1, which the callers
-        // give as `out.len()` (asserted there).
-        unsafe { code.get(k)(x.as_ptr(), u.as_ptr(), t, out.as_mut_ptr()) };
+        // give as `out.len()` (asserted there); it reads the constant slots `s < consts ≤
+        // template.len()` of the template it was generated for (the cache hands out code
+        // only for programs with the same instructions and slot layout).
+        unsafe {
+            code.get(k)(
+                x.as_ptr(),
+                u.as_ptr(),
+                t,
+                out.as_mut_ptr(),
+                self.program.template.as_ptr(),
+            )
+        };
         true
     }
 

@@ -169,7 +169,7 @@ fn power_of_two(v: f64) -> bool {
 }
 
 /// One node. Constants are stored by their bits so that the node is hashable.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Node {
     /// A number (`f64::to_bits`).
     Const(u64),
@@ -179,6 +179,9 @@ pub enum Node {
     Input(u32),
     /// Time `t`.
     Time,
+    /// Parameter `pₖ` of a model's parameter block: an input of the compiled code, never
+    /// folded into a constant (so one compiled program serves every parameter value).
+    Param(u32),
     /// `−a`
     Neg(u32),
     /// `a + b`
@@ -201,11 +204,39 @@ pub enum Node {
     F(Func, u32),
 }
 
+/// Two words per node (an injective packing, so equal hashes of unequal nodes are only the
+/// hasher's collisions): the hash-consing's one cost per operation.
+impl std::hash::Hash for Node {
+    #[inline]
+    fn hash<H: Hasher>(&self, h: &mut H) {
+        let w = |tag: u64, a: u32| tag | (a as u64) << 32;
+        let (w0, w1) = match *self {
+            Node::Const(b) => (0, b),
+            Node::State(i) => (1, i as u64),
+            Node::Input(k) => (2, k as u64),
+            Node::Time => (3, 0),
+            Node::Param(k) => (4, k as u64),
+            Node::Neg(a) => (w(5, a), 0),
+            Node::Add(a, b) => (w(6, a), b as u64),
+            Node::Sub(a, b) => (w(7, a), b as u64),
+            Node::Mul(a, b) => (w(8, a), b as u64),
+            Node::Div(a, b) => (w(9, a), b as u64),
+            Node::Rem(a, b) => (w(10, a), b as u64),
+            Node::Powi(a, n) => (w(11, a), n as u32 as u64),
+            Node::Powf(a, p) => (w(12, a), p),
+            Node::Atan2(a, b) => (w(13, a), b as u64),
+            Node::F(f, a) => (w(14 | (f as u64) << 8, a), 0),
+        };
+        h.write_u64(w0);
+        h.write_u64(w1);
+    }
+}
+
 impl Node {
     /// The operands, in order.
     pub fn args(&self) -> ([u32; 2], usize) {
         match *self {
-            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time => ([0, 0], 0),
+            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time | Node::Param(_) => ([0, 0], 0),
             Node::Neg(a) | Node::Powi(a, _) | Node::Powf(a, _) | Node::F(_, a) => ([a, 0], 1),
             Node::Add(a, b)
             | Node::Sub(a, b)
@@ -225,9 +256,12 @@ pub struct Graph {
 }
 
 impl Graph {
-    /// An empty graph.
-    pub fn new() -> Self {
-        Graph::default()
+    /// An empty graph with room for `n` nodes.
+    pub fn with_capacity(n: usize) -> Self {
+        Graph {
+            nodes: Vec::with_capacity(n),
+            ids: FxMap::with_capacity_and_hasher(n, Default::default()),
+        }
     }
 
     /// Number of nodes.
@@ -236,9 +270,9 @@ impl Graph {
         self.nodes.len()
     }
 
-    /// Whether `other` holds the same nodes under the same ids (the same recording).
-    pub fn same_as(&self, other: &Graph) -> bool {
-        self.nodes == other.nodes
+    /// The nodes, in id order.
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
     }
 
     /// Which nodes `roots` depend on (the roots included), indexed by id.
@@ -270,25 +304,36 @@ impl Graph {
 
     /// The id of `node`, adding it if new (no simplification).
     pub fn intern(&mut self, node: Node) -> u32 {
-        if let Some(&id) = self.ids.get(&node) {
-            return id;
+        let next = self.nodes.len();
+        match self.ids.entry(node) {
+            std::collections::hash_map::Entry::Occupied(e) => *e.get(),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                let id = u32::try_from(next).expect("symbolic: more than 2³² nodes");
+                e.insert(id);
+                self.nodes.push(node);
+                id
+            }
         }
-        let id = u32::try_from(self.nodes.len()).expect("symbolic: more than 2³² nodes");
-        self.nodes.push(node);
-        self.ids.insert(node, id);
-        id
     }
 
     /// The id of a commutative `node` (as written) whose operands may come in either
     /// order: found under its sorted form `key`, so `a + b` and `b + a` are one node,
-    /// printed in the order first written.
+    /// printed in the order first written. (A commutative node enters only here, always
+    /// under its key, so a missing key means a new node.)
     fn intern_commutative(&mut self, node: Node, key: Node) -> u32 {
-        if let Some(&id) = self.ids.get(&key) {
-            return id;
+        let next = self.nodes.len();
+        match self.ids.entry(key) {
+            std::collections::hash_map::Entry::Occupied(e) => *e.get(),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                let id = u32::try_from(next).expect("symbolic: more than 2³² nodes");
+                e.insert(id);
+                self.nodes.push(node);
+                if node != key {
+                    self.ids.insert(node, id);
+                }
+                id
+            }
         }
-        let id = self.intern(node);
-        self.ids.insert(key, id);
-        id
     }
 
     /// The constant `v`.
@@ -312,7 +357,7 @@ impl Graph {
     fn rank(&self, id: u32) -> u8 {
         match self.node(id) {
             Node::Const(_) => 0,
-            Node::State(_) | Node::Input(_) | Node::Time => 1,
+            Node::State(_) | Node::Input(_) | Node::Time | Node::Param(_) => 1,
             _ => 2,
         }
     }
@@ -476,7 +521,7 @@ impl Graph {
     /// a node, where `id`'s own value is at hand for the rules that reuse it.
     pub fn partial(&mut self, id: u32, k: usize) -> u32 {
         match self.node(id) {
-            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time => self.num(0.0),
+            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time | Node::Param(_) => self.num(0.0),
             Node::Neg(_) => self.num(-1.0),
             Node::Add(..) => self.num(1.0),
             Node::Sub(..) => self.num(if k == 0 { 1.0 } else { -1.0 }),
@@ -604,23 +649,25 @@ impl Graph {
         }
     }
 
-    /// The value of every node in `order` (ids ascending) given the leaves: a reference
+    /// The value of node `id` given the leaves (`p` the parameters): a reference
     /// evaluator (allocating; the compiled [`Program`](super::compile::Program) is the fast one).
-    pub fn eval(&self, id: u32, t: f64, x: &[f64], u: &[f64]) -> f64 {
+    pub fn eval(&self, id: u32, t: f64, x: &[f64], u: &[f64], p: &[f64]) -> f64 {
         let mut memo: HashMap<u32, f64> = HashMap::new();
-        self.eval_memo(id, t, x, u, &mut memo)
+        self.eval_memo(id, (t, x, u, p), &mut memo)
     }
 
-    fn eval_memo(&self, id: u32, t: f64, x: &[f64], u: &[f64], memo: &mut HashMap<u32, f64>) -> f64 {
+    fn eval_memo(&self, id: u32, at: (f64, &[f64], &[f64], &[f64]), memo: &mut HashMap<u32, f64>) -> f64 {
         if let Some(&v) = memo.get(&id) {
             return v;
         }
-        let ev = |k: u32, memo: &mut HashMap<u32, f64>| self.eval_memo(k, t, x, u, memo);
+        let (t, x, u, p) = at;
+        let ev = |k: u32, memo: &mut HashMap<u32, f64>| self.eval_memo(k, at, memo);
         let v = match self.node(id) {
             Node::Const(b) => f64::from_bits(b),
             Node::State(i) => x[i as usize],
             Node::Input(k) => u[k as usize],
             Node::Time => t,
+            Node::Param(k) => p[k as usize],
             Node::Neg(a) => -ev(a, memo),
             Node::Add(a, b) => ev(a, memo) + ev(b, memo),
             Node::Sub(a, b) => ev(a, memo) - ev(b, memo),
@@ -643,7 +690,7 @@ mod tests {
 
     #[test]
     fn simplifies_as_it_builds() {
-        let mut g = Graph::new();
+        let mut g = Graph::default();
         let x = g.intern(Node::State(0));
         let y = g.intern(Node::State(1));
         let (zero, one, two) = (g.num(0.0), g.num(1.0), g.num(2.0));

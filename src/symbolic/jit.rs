@@ -23,8 +23,9 @@ use std::sync::Arc;
 /// on the 1-D Brusselator: 5 ms for 900 instructions, 52 ms for 4 500, 0.76 s for 18 000).
 pub const MAX_NATIVE_INSTRUCTIONS: usize = 5_000;
 
-/// `out[offsets[k]] ← output k` at `(x, u, t)`.
-pub(crate) type NativeFn = unsafe extern "C" fn(*const f64, *const f64, f64, *mut f64);
+/// `out[offsets[k]] ← output k` at `(x, u, t)`, the constants and parameters read from
+/// `consts` (the program's constant slots): `f(x, u, t, out, consts)`.
+pub(crate) type NativeFn = unsafe extern "C" fn(*const f64, *const f64, f64, *mut f64, *const f64);
 
 /// Generated functions and the module that owns their memory.
 pub(crate) struct Native {
@@ -182,7 +183,7 @@ fn define(
 ) -> Result<FuncId, Box<cranelift_module::ModuleError>> {
     let ptr = module.target_config().pointer_type();
     let mut sig = module.make_signature();
-    for t in [ptr, ptr, types::F64, ptr] {
+    for t in [ptr, ptr, types::F64, ptr, ptr] {
         sig.params.push(AbiParam::new(t));
     }
     let id = module
@@ -224,15 +225,16 @@ fn define(
         b.append_block_params_for_function_params(block);
         b.switch_to_block(block);
         let p = b.block_params(block).to_vec();
-        let (xp, up, t, out) = (p[0], p[1], p[2], p[3]);
+        let (xp, up, t, out, cp) = (p[0], p[1], p[2], p[3], p[4]);
         let flags = MemFlagsData::trusted();
         let slot = b.create_sized_stack_slot(StackSlotData::new(StackSlotKind::ExplicitSlot, 8, 3));
         let (template, ins, outputs) = program.parts();
         let mut val: Vec<Option<Value>> = vec![None; template.len()];
         let mut refs = std::collections::HashMap::new();
-        // a constant slot is never written by an instruction: materialise it at its use
+        // a constant slot is never written by an instruction: loaded from `consts` at its
+        // first use (data, not code: the same code serves other constants and parameters)
         let get = |b: &mut FunctionBuilder, val: &mut Vec<Option<Value>>, s: u32| -> Value {
-            *val[s as usize].get_or_insert_with(|| b.ins().f64const(template[s as usize]))
+            *val[s as usize].get_or_insert_with(|| b.ins().load(types::F64, flags, cp, 8 * s as i32))
         };
         for &Ins { op, d, a, b: bb } in ins {
             let r = match op {

@@ -7,7 +7,7 @@ use std::sync::Arc;
 /// With the `jit` feature, programs up to this length get native code; without it none do.
 pub const MAX_NATIVE_INSTRUCTIONS: usize = 0;
 
-pub(crate) type NativeFn = unsafe extern "C" fn(*const f64, *const f64, f64, *mut f64);
+pub(crate) type NativeFn = unsafe extern "C" fn(*const f64, *const f64, f64, *mut f64, *const f64);
 
 /// No native code exists without the `jit` feature.
 #[derive(Debug)]

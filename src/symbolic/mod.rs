@@ -30,11 +30,30 @@
 //! A body whose control flow depends on the state (a comparison of traced values, a
 //! sign test, reading a traced number) cannot be traced faithfully: [`trace`] returns
 //! [`Error::Untraceable`] naming the model, and the model keeps working with its num-dual
-//! Jacobian. A time written as a plain `t` (an `f64` in the body) is invisible to the trace:
-//! the body is recorded with `t = +∞` and again with `t = −∞`, and a body that computes
-//! with `t` (a non-finite constant appears) or branches on it (the two graphs differ) is
-//! refused the same way. Write `t: S` to trace the time.
+//! Jacobian. A time written as a plain `t` (an `f64` in the body) is invisible to the trace,
+//! which could record a comparison with it (`t > 0.0 && t < 5.0`, `t.abs() < 5.0`,
+//! `t.is_finite()`, `t % 2.0 < 1.0`) for one time only; no set of probe times can rule out
+//! a branch at some other time. So a body that *names* its plain `t` anywhere (`model!`
+//! looks at the body's tokens: a local variable is reachable only by its name) is refused
+//! the same way, and one that does not name it is time-independent. Write `t: S` to trace
+//! the time, or `_` for a model that does not read it.
+//!
+//! ```
+//! use reckon::{model, symbolic, Error};
+//! use nalgebra::vector;
+//! let switched = model!(|t, x: [S; 1]| vector![if t.abs() < 5.0 { x[0].clone() * -100.0 } else { -x[0].clone() }]);
+//! assert!(matches!(symbolic::trace(&switched, 1), Err(Error::Untraceable { .. })));
+//! let traced = model!(|t: S, x: [S; 1]| vector![x[0] * t.cos()]);
+//! assert_eq!(symbolic::trace(&traced, 1).unwrap().jacobian_text(), "∂ẋ₀/∂x₀ = cos(t)\n");
+//! ```
+//!
+//! A model's parameter block (`p: [S; P] = […]`) is traced too, its parameters as the leaves
+//! `pₖ` (inputs of the compiled code, not constants). Compiled Jacobians are cached by the
+//! recorded graph, so a model rebuilt with the same structure, or with other parameter
+//! values, skips the differentiation and the compile: see [`cache`] for the design and
+//! for what a traced body may capture.
 
+pub mod cache;
 mod compile;
 mod diff;
 mod graph;
@@ -46,6 +65,7 @@ pub mod jit;
 mod print;
 mod sym;
 
+pub use cache::{CacheStats, TraceCounts, cache_stats, clear_cache};
 pub use compile::CompiledJacobian;
 pub use graph::Func;
 pub use sym::{Sym, plain_time};
@@ -67,6 +87,8 @@ pub struct Names {
     pub inputs: Vec<String>,
     /// The time's name (`t` when empty).
     pub time: String,
+    /// Parameter names (missing ones print as `pₖ`).
+    pub params: Vec<String>,
 }
 
 impl Names {
@@ -82,6 +104,12 @@ impl Names {
             .cloned()
             .unwrap_or_else(|| format!("u{}", print::subscript(k)))
     }
+    pub(crate) fn param(&self, k: usize) -> String {
+        self.params
+            .get(k)
+            .cloned()
+            .unwrap_or_else(|| format!("p{}", print::subscript(k)))
+    }
     pub(crate) fn time(&self) -> String {
         if self.time.is_empty() {
             "t".into()
@@ -91,21 +119,23 @@ impl Names {
     }
 }
 
-/// How a [`ClosureModel`](crate::ClosureModel) runs its body on [`Sym`]: [`NoTrace`] for
-/// a model built without one, [`TraceFn`] for the copy `model!` compiles.
+/// How a [`ClosureModel`](crate::ClosureModel) or a [`ParamModel`](crate::ParamModel) runs
+/// its body on [`Sym`]: [`NoTrace`] for a model built without one, [`TraceFn`] for the
+/// copy `model!` compiles.
 pub trait TraceBody<D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
     /// Whether there is a body to run.
     fn traceable(&self) -> bool;
-    /// Whether the body sees the time as a plain `f64` (`|t, x: …|`): it is then recorded
-    /// twice, with `t = +∞` and `t = −∞`, and refused unless both graphs are the same.
+    /// Whether the body reads its time as a plain `f64` (`|t, x: …|` with `t` used in the
+    /// body): the trace cannot follow such a time and refuses the body.
     fn plain_time(&self) -> bool {
         false
     }
-    /// `f(t, x, u)` on traced values (`None` without a body).
-    fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym]) -> Option<OVector<Sym, D>>;
+    /// `f(t, x, u; p)` on traced values (`None` without a body; `p` is empty for a model
+    /// without a parameter block).
+    fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym], p: &[Sym]) -> Option<OVector<Sym, D>>;
 }
 
 /// No traced copy of the body (a [`ClosureModel::new`](crate::ClosureModel::new) built by hand).
@@ -119,23 +149,23 @@ where
     fn traceable(&self) -> bool {
         false
     }
-    fn run(&self, _t: Sym, _x: &OVector<Sym, D>, _u: &[Sym]) -> Option<OVector<Sym, D>> {
+    fn run(&self, _t: Sym, _x: &OVector<Sym, D>, _u: &[Sym], _p: &[Sym]) -> Option<OVector<Sym, D>> {
         None
     }
 }
 
-/// The body instantiated at [`Sym`] (what `model!` generates); `plain_time` when the body's
-/// time is a plain `f64` (see [`TraceBody::plain_time`]).
+/// The body instantiated at [`Sym`] (what `model!` generates); `plain_time` when the body
+/// reads a time that is a plain `f64` (see [`TraceBody::plain_time`]).
 #[derive(Clone)]
 pub struct TraceFn<H> {
     /// The traced copy of the body.
     pub body: H,
-    /// The body's time is a plain `f64` it may compute or branch with.
+    /// The body reads its time as a plain `f64`.
     pub plain_time: bool,
 }
 
 impl<H> TraceFn<H> {
-    /// The traced copy `body`; `plain_time` when its time is a plain `f64`.
+    /// The traced copy `body`; `plain_time` when it reads a time that is a plain `f64`.
     pub fn new(plain_time: bool, body: H) -> Self {
         TraceFn { body, plain_time }
     }
@@ -152,48 +182,96 @@ where
     fn plain_time(&self) -> bool {
         self.plain_time
     }
-    fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym]) -> Option<OVector<Sym, D>> {
+    fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym], _p: &[Sym]) -> Option<OVector<Sym, D>> {
         Some((self.body)(t, x, u))
     }
 }
 
-/// Trace `body` (a model's [`TraceBody`]) for a state of `n` and `m` inputs.
-pub(crate) fn trace_body<D: Dim, B: TraceBody<D>>(body: &B, model: &str, n: usize, m: usize) -> Result<Traced>
+/// The body of a model with a parameter block instantiated at [`Sym`], the parameters
+/// traced as the leaves `pₖ` (what `model!` generates for `p: [S; P] = […]`).
+#[derive(Clone)]
+pub struct TraceParamsFn<H> {
+    /// The traced copy of the body.
+    pub body: H,
+    /// The body reads its time as a plain `f64`.
+    pub plain_time: bool,
+}
+
+impl<H> TraceParamsFn<H> {
+    /// The traced copy `body`; `plain_time` when it reads a time that is a plain `f64`.
+    pub fn new(plain_time: bool, body: H) -> Self {
+        TraceParamsFn { body, plain_time }
+    }
+}
+
+impl<D: Dim, H> TraceBody<D> for TraceParamsFn<H>
+where
+    H: Fn(Sym, &OVector<Sym, D>, &[Sym], &[Sym]) -> OVector<Sym, D>,
+    DefaultAllocator: Allocator<D>,
+{
+    fn traceable(&self) -> bool {
+        true
+    }
+    fn plain_time(&self) -> bool {
+        self.plain_time
+    }
+    fn run(&self, t: Sym, x: &OVector<Sym, D>, u: &[Sym], p: &[Sym]) -> Option<OVector<Sym, D>> {
+        Some((self.body)(t, x, u, p))
+    }
+}
+
+/// The sizes and parameter values of a recording: `n` states, `m` inputs, parameters `p`.
+pub(crate) struct Shape<'a> {
+    pub n: usize,
+    pub m: usize,
+    pub p: &'a [f64],
+}
+
+/// Record `body` (a model's [`TraceBody`]) for a state of `n`, `m` inputs and the
+/// parameters `p` (as leaves): the graph and the outputs' ids, not yet differentiated.
+/// `capacity`: the number of nodes expected (a model's previous recording).
+fn record_body<D: Dim, B: TraceBody<D>>(
+    body: &B,
+    model: &str,
+    shape: &Shape,
+    capacity: usize,
+) -> Result<(Graph, Vec<u32>)>
 where
     DefaultAllocator: Allocator<D>,
 {
-    let n = D::try_to_usize().unwrap_or(n);
-    let mut leaves: Vec<Node> = (0..n as u32).map(Node::State).collect();
-    leaves.extend((0..m as u32).map(Node::Input));
-    leaves.push(Node::Time);
+    let (m, np) = (shape.m, shape.p.len());
+    let n = D::try_to_usize().unwrap_or(shape.n);
     let untraceable = |reason: String| Error::Untraceable {
         model: model.to_string(),
         reason,
     };
-    let record = |t: f64| {
-        sym::set_plain_time(t);
-        sym::record(&leaves, |syms| {
-            let x = OVector::<Sym, D>::from_iterator_generic(D::from_usize(n), U1, syms[..n].iter().copied());
-            body.run(syms[n + m], &x, &syms[n..n + m])
-                .map(|f| f.iter().map(|s| s.id()).collect::<Vec<u32>>())
-        })
-    };
-    let recorded = record(f64::INFINITY);
-    if body.plain_time()
-        && let Ok((g, f)) = &recorded
-    {
-        // a body that branches on its plain time records another graph at t = −∞
-        match record(f64::NEG_INFINITY) {
-            Ok((g2, f2)) if g2.same_as(g) && f2 == *f => {}
-            Ok(_) => {
-                return Err(untraceable(
-                    "its body branches on its time `t`, a plain f64 the trace cannot follow: write                      `|t: S, x: …|` and express the time dependence without a comparison                      (its Jacobian still comes from num-dual)"
-                        .into(),
-                ));
-            }
-            Err(e) => return Err(untraceable(format!("{e:?}"))),
-        }
+    if !body.traceable() {
+        return Err(untraceable(
+            "it has no traced copy of its body (build it with model!)".into(),
+        ));
     }
+    if body.plain_time() {
+        return Err(untraceable(
+            "its body reads its time `t`, a plain f64 the trace cannot follow (a comparison or \
+             a computation with it would be recorded for one time only): write `|t: S, x: …|` \
+             to trace the time, or `_` for a model that does not read it (its Jacobian still \
+             comes from num-dual)"
+                .into(),
+        ));
+    }
+    let mut leaves: Vec<Node> = (0..n as u32).map(Node::State).collect();
+    leaves.extend((0..m as u32).map(Node::Input));
+    leaves.push(Node::Time);
+    leaves.extend((0..np as u32).map(Node::Param));
+    // a time the body was shown not to read: +∞, so that a hidden use that computes
+    // with it records a non-finite constant and is refused
+    sym::set_plain_time(f64::INFINITY);
+    cache::recorded();
+    let recorded = sym::record(&leaves, capacity, |syms| {
+        let x = OVector::<Sym, D>::from_iterator_generic(D::from_usize(n), U1, syms[..n].iter().copied());
+        body.run(syms[n + m], &x, &syms[n..n + m], &syms[n + m + 1..])
+            .map(|f| f.iter().map(|s| s.id()).collect::<Vec<u32>>())
+    });
     let (g, f) = match recorded {
         Ok((g, Some(f))) => (g, f),
         Ok((_, None)) => {
@@ -226,10 +304,24 @@ where
             format!("f returned {} components for a state of {n}", f.len()),
         ));
     }
-    let tr = Traced::build(g, n, m, f, model);
-    // constants the body wrote are checked as they enter (a `PlainValue` fault); those
-    // made by folding (1/L for L = 1e-320 in a derivative) are checked here, on every
-    // expression of the right-hand side and its derivatives
+    Ok((g, f))
+}
+
+/// Trace `body` (a model's [`TraceBody`]) for a state of `n`, `m` inputs and the
+/// parameters `p`.
+pub(crate) fn trace_body<D: Dim, B: TraceBody<D>>(body: &B, model: &str, shape: &Shape) -> Result<Traced>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let (g, f) = record_body(body, model, shape, 0)?;
+    let n = f.len();
+    finite_constants(Traced::build(g, n, shape.m, shape.p, f, model), model)
+}
+
+/// `tr` if every constant its right-hand side and derivatives reach is finite. The
+/// constants the body wrote are checked as they enter (a `PlainValue` fault); those made
+/// by folding (1/L for L = 1e-320 in a derivative) are checked here.
+fn finite_constants(tr: Traced, model: &str) -> Result<Traced> {
     let roots: Vec<u32> =
         tr.f.iter()
             .copied()
@@ -242,12 +334,43 @@ where
         .filter(|id| reach[*id as usize])
         .find_map(|id| tr.g.constant(id).filter(|v| !v.is_finite()))
     {
-        return Err(untraceable(format!(
-            "folding its constants gives {v} (an operation on its numbers overflows or is undefined: \
+        return Err(Error::Untraceable {
+            model: model.to_string(),
+            reason: format!(
+                "folding its constants gives {v} (an operation on its numbers overflows or is undefined: \
              a parameter out of range), so its right-hand side or Jacobian is not finite"
-        )));
+            ),
+        });
     }
     Ok(tr)
+}
+
+/// The compiled `∂f/∂x` of `body` for a state of `n`, `m` inputs and the parameters `p`:
+/// the body is recorded, and the compiled Jacobian of an equal recording is taken from
+/// the cache ([`cache`]) or the recording is differentiated and compiled. `counters`
+/// counts what was done.
+pub(crate) fn cached_jacobian<D: Dim, B: TraceBody<D>>(
+    body: &B,
+    model: &str,
+    shape: &Shape,
+    counters: &cache::Counters,
+) -> Result<CompiledJacobian>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    // the model's last recording, or a guess for a new model (a rebuilt one)
+    let hint = match cache::Counters::get(&counters.last_nodes) {
+        0 => 16 * shape.n + 64,
+        last => last,
+    };
+    let (g, f) = record_body(body, model, shape, hint)?;
+    counters.last_nodes.store(g.len(), std::sync::atomic::Ordering::Relaxed);
+    let n = f.len();
+    let (jac, outcome) = cache::compiled_jacobian(g, f, (n, shape.m, shape.p), |g, f| {
+        Traced::build(g, n, shape.m, shape.p, f, model).compile_jacobian()
+    });
+    counters.count(outcome);
+    Ok(jac)
 }
 
 /// The trace of a model: its right-hand side and derivatives as expressions of one graph.
@@ -267,6 +390,8 @@ pub struct Traced {
     g: Graph,
     n: usize,
     m: usize,
+    /// The parameter values `pₖ` (a parameter block's; empty without one).
+    params: Vec<f64>,
     f: Vec<u32>,
     /// `(row, col, node)` of `∂f/∂x`, column by column.
     jx: Vec<(usize, usize, u32)>,
@@ -284,6 +409,7 @@ impl fmt::Debug for Traced {
             .field("model", &self.model)
             .field("n", &self.n)
             .field("inputs", &self.m)
+            .field("params", &self.params.len())
             .field("nodes", &self.g.len())
             .field("jacobian_nnz", &self.jx.len())
             .finish()
@@ -324,9 +450,10 @@ impl Expr<'_> {
     pub fn mathml(&self) -> String {
         print::mathml(&self.tr.g, self.id, &self.tr.names)
     }
-    /// Its value at `(t, x, u)` (a slow reference evaluation; see [`Traced::compile_jacobian`]).
+    /// Its value at `(t, x, u)`, the parameters at the model's values (a slow reference
+    /// evaluation; see [`Traced::compile_jacobian`]).
     pub fn eval(&self, t: f64, x: &[f64], u: &[f64]) -> f64 {
-        self.tr.g.eval(self.id, t, x, u)
+        self.tr.g.eval(self.id, t, x, u, &self.tr.params)
     }
     /// The number, if the expression is a constant.
     pub fn constant(&self) -> Option<f64> {
@@ -370,7 +497,7 @@ fn dotted(name: &str) -> String {
 }
 
 impl Traced {
-    fn build(mut g: Graph, n: usize, m: usize, f: Vec<u32>, model: &str) -> Traced {
+    fn build(mut g: Graph, n: usize, m: usize, params: &[f64], f: Vec<u32>, model: &str) -> Traced {
         let var_of = |node: Node| match node {
             Node::State(i) => Some(i),
             Node::Input(k) => Some(n as u32 + k),
@@ -409,6 +536,7 @@ impl Traced {
             g,
             n,
             m,
+            params: params.to_vec(),
             f,
             jx,
             ju,
@@ -438,6 +566,22 @@ impl Traced {
     /// Number of inputs `m`.
     pub fn inputs(&self) -> usize {
         self.m
+    }
+
+    /// The parameter values `pₖ` the trace evaluates and compiles with (a parameter
+    /// block's, traced as the leaves `pₖ`; empty for a model without one).
+    ///
+    /// ```
+    /// use reckon::{model, symbolic};
+    /// use nalgebra::vector;
+    /// let f = model!(|_, x: [S; 1], p: [S; 1] = [2.0]| vector![-(p[0] * x[0])]);
+    /// let tr = symbolic::trace(&f, 1).unwrap();
+    /// assert_eq!(tr.params(), &[2.0]);
+    /// assert_eq!(tr.jacobian_text(), "∂ẋ₀/∂x₀ = −p₀\n");
+    /// assert_eq!(tr.jacobian_entry(0, 0).unwrap().eval(0.0, &[1.0], &[]), -2.0);
+    /// ```
+    pub fn params(&self) -> &[f64] {
+        &self.params
     }
 
     /// The traced model's name (the function that defined it).
@@ -498,7 +642,7 @@ impl Traced {
     /// is short enough (see [`CompiledJacobian`]).
     pub fn compile_jacobian(&self) -> CompiledJacobian {
         let roots: Vec<u32> = self.jx.iter().map(|e| e.2).collect();
-        CompiledJacobian::new(self.pattern(), compile::Program::new(&self.g, &roots))
+        CompiledJacobian::new(self.pattern(), compile::Program::new(&self.g, &roots, &self.params))
     }
 
     fn text_of(&self, id: u32) -> String {
@@ -573,10 +717,22 @@ impl Traced {
     /// Rust source of two functions, `rhs(t, x, u, dx)` (`dx ← f`) and
     /// `jacobian(t, x, u, jac)` (`jac ← ∂f/∂x`, column-major `n × n`, `jac[i + n·j]`,
     /// structural zeros left as they are), that compile on their own and compute what the
-    /// compiled evaluator computes.
+    /// compiled evaluator computes. A model's parameters are the constant `P` the functions
+    /// read as `p[k]`.
     pub fn rust(&self) -> String {
         let n = self.n;
         let mut s = format!("// generated by reckon::symbolic from `{}`\n", self.model);
+        let p_let = if self.params.is_empty() {
+            ""
+        } else {
+            let values: Vec<String> = self.params.iter().map(|&v| print::rust_number(v)).collect();
+            s += &format!(
+                "/// The parameters `p` the trace was made with.\npub const P: [f64; {}] = [{}];\n\n",
+                values.len(),
+                values.join(", ")
+            );
+            "    let p = &P;\n"
+        };
         let mut roots = self.f.clone();
         roots.extend(self.jx.iter().map(|e| e.2));
         if print::uses_sign(&self.g, &roots) {
@@ -592,6 +748,7 @@ impl Traced {
         s += &format!("/// `dx ← f(t, x, u)` ({n} states, {} inputs).\n", self.m);
         s += "#[allow(unused_variables, clippy::all)]\n";
         s += "pub fn rhs(t: f64, x: &[f64], u: &[f64], dx: &mut [f64]) {\n";
+        s += p_let;
         s += &print::rust_body(&self.g, &f, &self.names, "    ");
         s += "}\n\n";
         let jac: Vec<(String, u32)> = self
@@ -603,6 +760,7 @@ impl Traced {
         s += "/// structural zeros are left as they are.\n";
         s += "#[allow(unused_variables, clippy::all)]\n";
         s += "pub fn jacobian(t: f64, x: &[f64], u: &[f64], jac: &mut [f64]) {\n";
+        s += p_let;
         s += &print::rust_body(&self.g, &jac, &self.names, "    ");
         s += "}\n";
         s

@@ -22,7 +22,13 @@ enum Lang {
 fn prec(g: &Graph, id: u32) -> u8 {
     match g.node(id) {
         Node::Const(b) if f64::from_bits(b) < 0.0 || f64::from_bits(b).is_sign_negative() => 2,
-        Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time | Node::F(..) | Node::Atan2(..) => 5,
+        Node::Const(_)
+        | Node::State(_)
+        | Node::Input(_)
+        | Node::Time
+        | Node::Param(_)
+        | Node::F(..)
+        | Node::Atan2(..) => 5,
         Node::Add(..) | Node::Sub(..) => 1,
         Node::Mul(..) | Node::Div(..) | Node::Rem(..) | Node::Neg(_) => 2,
         Node::Powi(..) | Node::Powf(..) => 4,
@@ -41,7 +47,7 @@ pub(crate) fn number(v: f64) -> String {
 }
 
 /// `v` as a Rust `f64` literal that reads back to the same bits.
-fn rust_number(v: f64) -> String {
+pub(crate) fn rust_number(v: f64) -> String {
     if v.is_nan() {
         "f64::NAN".into()
     } else if v.is_infinite() {
@@ -179,6 +185,8 @@ impl Printer<'_> {
             Node::State(i) if self.lang == Lang::Rust => format!("x[{i}]"),
             Node::Input(k) if self.lang == Lang::Rust => format!("u[{k}]"),
             Node::Time if self.lang == Lang::Rust => "t".into(),
+            Node::Param(k) if self.lang == Lang::Rust => format!("p[{k}]"),
+            Node::Param(k) => name(self.names.param(k as usize)),
             Node::State(i) => name(self.names.state(i as usize)),
             Node::Input(k) => name(self.names.input(k as usize)),
             Node::Time => name(self.names.time()),
@@ -326,7 +334,9 @@ impl Printer<'_> {
                 Lang::Text => format!("atan2({}, {})", self.expr(a), self.expr(b)),
             },
             Node::F(f, a) => self.func(f, a),
-            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time => unreachable!("leaves print above"),
+            Node::Const(_) | Node::State(_) | Node::Input(_) | Node::Time | Node::Param(_) => {
+                unreachable!("leaves print above")
+            }
         }
     }
 
@@ -370,7 +380,10 @@ impl Printer<'_> {
                         other => format!("\\operatorname{{{}}}", other.name().replace('_', "\\_")),
                     };
                     // a name needs no parentheses: `\sin \theta`, `\cos x_{0}`
-                    if matches!(self.g.node(a), Node::State(_) | Node::Input(_) | Node::Time) {
+                    if matches!(
+                        self.g.node(a),
+                        Node::State(_) | Node::Input(_) | Node::Time | Node::Param(_)
+                    ) {
                         format!("{cmd} {arg}")
                     } else {
                         format!("{cmd}\\left({arg}\\right)")

@@ -46,9 +46,10 @@ thread_local! {
     static PLAIN_TIME: std::cell::Cell<f64> = const { std::cell::Cell::new(f64::NAN) };
 }
 
-/// The value a traced body sees for a time written as a plain `t` (an `f64`): `+∞` in one
-/// recording and `−∞` in the other, so that a body computing with it records a non-finite
-/// constant and one branching on it records two different graphs; both are refused.
+/// The value a traced body sees for a time written as a plain `t` (an `f64`) or `_`: `+∞`.
+/// A body that names a plain `t` is refused before it runs (`model!` checks the body's
+/// tokens), so this is only a guard: a hidden use that computes with it records a
+/// non-finite constant and is refused.
 #[doc(hidden)]
 pub fn plain_time() -> f64 {
     PLAIN_TIME.with(|c| c.get())
@@ -85,14 +86,19 @@ impl Drop for Recording {
 /// Run `body` on a fresh tape whose first nodes are `leaves` (interned in order) and
 /// return the graph with `body`'s result; `Err` with the first fault, or `Err(None)` when
 /// a recording is already running on this thread (a body that traces inside a trace).
-pub(crate) fn record<R>(leaves: &[Node], body: impl FnOnce(&[Sym]) -> R) -> Result<(Graph, R), Option<Fault>> {
+/// `capacity`: the number of nodes expected (room made up front).
+pub(crate) fn record<R>(
+    leaves: &[Node],
+    capacity: usize,
+    body: impl FnOnce(&[Sym]) -> R,
+) -> Result<(Graph, R), Option<Fault>> {
     let started = TAPE.with(|t| {
         let mut t = t.borrow_mut();
         if t.active {
             return false;
         }
         *t = Tape {
-            g: Graph::new(),
+            g: Graph::with_capacity(capacity),
             active: true,
             fault: None,
         };

@@ -699,7 +699,8 @@ where
             }
         }
         let (i, theta) = first?;
-        let moved = self.x_new[i] - self.x[i];
+        // the way the step moved component i, against the way f moves it over h (h < 0 backward)
+        let moved = (self.x_new[i] - self.x[i]) * h.signum();
         let fac = (0.9 * theta).clamp(0.1, 0.5);
         let (xs, fs) = self.probe.get_or_insert_with(|| (self.x.clone(), self.x.clone()));
         // where the step starts, component i moved to zero

@@ -17,6 +17,7 @@ fn mescd<const N: usize>(y: &SVector<f64, N>, r: &[f64; N], atol: &[f64; N], rto
     -m.log10()
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run<const N: usize, F: DualSystem<nalgebra::Const<N>> + Clone>(
     name: &str,
     f: F,
@@ -47,7 +48,7 @@ where
             };
             let line = match &r {
                 Ok(s) => {
-                    let d = mescd(&s.last().1, &reference, &atol, rtol);
+                    let d = mescd(s.last().1, &reference, &atol, rtol);
                     let want = -rtol.log10() - 2.0;
                     let flag = if d < want { "  <-- WRONG" } else { "" };
                     if d < want {

@@ -37,7 +37,7 @@ where
         for (m, run) in &runs {
             match run {
                 Ok(s) => {
-                    let d = mescd(&s.last().1, &r, atol, rtol);
+                    let d = mescd(s.last().1, &r, atol, rtol);
                     assert!(
                         d >= -rtol.log10() - 2.0,
                         "{m} at rtol {rtol:e}: mescd {d:.2}, end {:?}",
@@ -111,7 +111,7 @@ fn non_finite_trial_states_are_rejected_not_fatal() {
     let p = Problem::new(&vdp, vector![2.0, 0.0], (0.0, 2000.0));
     let o = Options::default().rtol(1e-2).atol(1e-2);
     let s = p.solve(Rodas5P::default(), &o).unwrap();
-    assert!(mescd(&s.last().1, &VDPOLM_REF_2000, 1e-2, 1e-2) >= 0.0);
+    assert!(mescd(s.last().1, &VDPOLM_REF_2000, 1e-2, 1e-2) >= 0.0);
     // a model that is NaN at the start: the typed error, with where it broke
     let bad = reckon::model!(|_t, x: [S; 1]| vector![x[0].clone().sqrt() * -1.0]);
     let p = Problem::new(&bad, vector![-1.0], (0.0, 1.0));

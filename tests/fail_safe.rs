@@ -113,7 +113,7 @@ fn non_finite_trial_states_are_rejected_not_fatal() {
     let s = p.solve(Rodas5P::default(), &o).unwrap();
     assert!(mescd(s.last().1, &VDPOLM_REF_2000, 1e-2, 1e-2) >= 0.0);
     // a model that is NaN at the start: the typed error, with where it broke
-    let bad = reckon::model!(|_t, x: [S; 1]| vector![x[0].clone().sqrt() * -1.0]);
+    let bad = reckon::model!(|_t, x: [S; 1]| vector![-x[0].clone().sqrt()]);
     let p = Problem::new(&bad, vector![-1.0], (0.0, 1.0));
     for e in [
         p.solve(Rodas5P::default(), &o).unwrap_err(),

@@ -571,6 +571,11 @@ impl Traced {
         (f, jx, ju, jt)
     }
 
+    /// Fonts with an OpenType MATH table, one per common system (macOS, TeX, Windows,
+    /// Linux), then the generic `math`: without one a browser's fences do not stretch.
+    pub const MATH_FONTS: &'static str =
+        "'STIX Two Math', 'Latin Modern Math', 'Cambria Math', 'DejaVu Math TeX Gyre', 'Noto Sans Math', math";
+
     /// What [`Traced::text`] prints, in LaTeX (amsmath): an `aligned` block of `f` (as
     /// `d/dt` of the state vector), `∂f/∂x`, `∂f/∂u` (with inputs) and `∂f/∂t` (when `f`
     /// reads the time symbol), each a `pmatrix`.
@@ -652,13 +657,15 @@ impl Traced {
         if let Some(jt) = jt {
             eqs.push((d("t"), mat(&jt)));
         }
-        let mut s = String::from(
+        let mut s = format!(
             "<math xmlns=\"http://www.w3.org/1998/Math/MathML\" display=\"block\" \
-             style=\"font-family: 'STIX Two Math', 'Latin Modern Math', 'Cambria Math', math\">\
-             <mtable columnalign=\"right left\" rowspacing=\"1em\">",
+             style=\"font-family: {}\"><mtable rowspacing=\"1em\">",
+            Self::MATH_FONTS
         );
         for (lhs, rhs) in eqs {
-            s += &format!("<mtr><mtd>{lhs}</mtd><mtd><mrow><mo>=</mo>{rhs}</mrow></mtd></mtr>");
+            // one cell an equation: browsers centre table cells (MathML Core has no
+            // columnalign), so the sign stays next to its left-hand side
+            s += &format!("<mtr><mtd><mrow>{lhs}<mo>=</mo>{rhs}</mrow></mtd></mtr>");
         }
         s + "</mtable></math>"
     }

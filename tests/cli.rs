@@ -417,6 +417,43 @@ fn demo_builds_the_report() {
     let out = dir().join("report");
     let o = reckon(&["demo", "--fast", "--out", p(&out)]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // the tables show the stiff methods on the stiff problems, with their correct digits
+    let tables = String::from_utf8(o.stdout).unwrap();
+    for problem in ["Van der Pol μ = 1000, y0", "Robertson, y0", "HIRES, t in"] {
+        let start = tables
+            .find(problem)
+            .unwrap_or_else(|| panic!("no {problem} table:\n{tables}"));
+        let section = &tables[start..];
+        let section = &section[..section[1..].find("\n\n").map_or(section.len(), |e| e + 1)];
+        // issue 33's standard: at least −log10(rtol) − 2 correct digits
+        for (method, setting) in [
+            ("bdf", "1e-6"),
+            ("rodas5p", "1e-6"),
+            ("auto", "1e-6"),
+            ("bdf", "1e-8"),
+            ("rodas5p", "1e-8"),
+            ("auto", "1e-8"),
+            ("exponential-euler", "1e-4"),
+        ] {
+            // method, setting (3 words), max error, digits, accepted, …
+            let row = section
+                .lines()
+                .find(|l| {
+                    let c: Vec<&str> = l.split_whitespace().collect();
+                    c.len() > 6 && c[0] == method && c[3] == setting
+                })
+                .unwrap_or_else(|| panic!("{problem}: no {method} at {setting}:\n{section}"));
+            let cells: Vec<&str> = row.split_whitespace().collect();
+            let digits: f64 = cells[5].parse().unwrap();
+            let need = -setting.parse::<f64>().unwrap().log10() - 2.0;
+            assert!(digits >= need, "{problem}: {row}");
+            let steps: u64 = cells[6].parse().unwrap();
+            assert!(steps > 0 && steps < 5000, "{problem}: {row}");
+        }
+        // RK45 is shown, capped where it is pinned by stability
+        assert!(section.lines().any(|l| l.trim_start().starts_with("rk45")), "{section}");
+    }
+    assert!(tables.contains("stopped by the cap of 100000 steps"), "{tables}");
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();
     let imgs: Vec<&str> = html
         .split("<img src=\"")
@@ -974,10 +1011,14 @@ fn jacobian_prints_the_traced_model_in_every_format() {
         "latex",
     ]);
     let latex = String::from_utf8(out.stdout).unwrap();
-    assert!(
-        latex.starts_with("\\frac{\\partial f}{\\partial x} = \\begin{pmatrix}"),
-        "{latex}"
-    );
+    // the same parts as the text: f, ∂f/∂x and ∂f/∂u
+    assert!(latex.starts_with("\\begin{aligned}\n\\frac{d}{dt}"), "{latex}");
+    for part in [
+        "\\frac{\\partial f}{\\partial x} &= \\begin{pmatrix}",
+        "\\frac{\\partial f}{\\partial u} &= \\begin{pmatrix}",
+    ] {
+        assert!(latex.contains(part), "{latex}");
+    }
     assert!(latex.contains("\\tan \\gamma"), "{latex}");
     let out = reckon(&["jacobian", "--model", "body3d", "--format", "mathml"]);
     assert!(out.status.success());

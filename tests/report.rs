@@ -6,7 +6,13 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn build() -> PathBuf {
-    let out = std::env::temp_dir().join(format!("reckon-report-{}", std::process::id()));
+    build_named("main")
+}
+
+/// The report of `reckon demo --fast` in a folder of its own (`name` keeps two tests of
+/// one process apart).
+fn build_named(name: &str) -> PathBuf {
+    let out = std::env::temp_dir().join(format!("reckon-report-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let o = Command::new(env!("CARGO_BIN_EXE_reckon"))
         .args(["demo", "--fast", "--out", out.to_str().unwrap()])
@@ -96,10 +102,19 @@ fn report_figures_legends_text_and_page() {
     );
     let files = images(&html);
     assert!(files.len() >= 22, "only {} figures", files.len());
+    // MathML fences stretch only with a math font: the page names one
+    assert!(
+        html.contains("math{font-family:\"STIX Two Math\",\"Latin Modern Math\",\"Cambria Math\""),
+        "no math font stack"
+    );
+    // the unicycle's text names the five segments its figure shows
+    assert!(html.contains("right arc, slow left arc"));
+    let phone = PhoneWidth::of(&html);
     let layouts: Vec<Value> =
         serde_json::from_str(&std::fs::read_to_string(out.join("figures.json")).unwrap()).unwrap();
     for file in &files {
         check_svg(&out.join(file));
+        check_phone_text(&out.join(file), &phone);
         let lay = layouts
             .iter()
             .find(|l| l["file"] == file.as_str())
@@ -119,6 +134,220 @@ fn report_figures_legends_text_and_page() {
             assert!(partner, "{}: open end at {a:?}", s["label"]);
         }
     }
+}
+
+/// How wide the page shows a figure on a phone 420 CSS px wide: the viewport less the
+/// body's side padding in the narrow-screen rule and the image's border, read from the
+/// page's CSS (so that a change there is measured, not assumed).
+struct PhoneWidth {
+    content: f64,
+}
+
+impl PhoneWidth {
+    const VIEWPORT: f64 = 420.0;
+    const EM: f64 = 16.0;
+    fn of(html: &str) -> PhoneWidth {
+        let css = &html[html.find("<style>").unwrap()..html.find("</style>").unwrap()];
+        // images shrink to the column, never grow past their own width
+        assert!(css.contains("img{display:block;max-width:100%;height:auto;"), "{css}");
+        let border = css[css.find("img{").unwrap()..]
+            .split("border:")
+            .nth(1)
+            .and_then(|b| b.split("px").next())
+            .map(|b| b.parse::<f64>().unwrap())
+            .unwrap_or(0.0);
+        // @media (max-width:600px){body{padding:TOP SIDE}…}: 420 px is inside the rule
+        let media = &css[css.find("@media (max-width:600px){").expect("a narrow-screen rule")..];
+        let pad = media.split("body{padding:").nth(1).unwrap();
+        let pad = &pad[..pad.find(['}', ';']).unwrap()];
+        let side = pad.split_whitespace().nth(1).unwrap_or(pad);
+        let side = match side.strip_suffix("em") {
+            Some(em) => em.parse::<f64>().unwrap() * Self::EM,
+            None => side.trim_end_matches("px").parse::<f64>().unwrap(),
+        };
+        PhoneWidth {
+            content: Self::VIEWPORT - 2.0 * side - 2.0 * border,
+        }
+    }
+}
+
+/// Every text of the figure is at least 10 CSS px when the page is 420 px wide: its
+/// font size times the scale at which the figure is shown (the column's width over the
+/// SVG's viewBox width, or 1 when the figure is narrower than the column).
+fn check_phone_text(path: &Path, phone: &PhoneWidth) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let root = doc.root_element();
+    let vb: Vec<f64> = root
+        .attribute("viewBox")
+        .unwrap()
+        .split_whitespace()
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let width: f64 = root.attribute("width").unwrap().parse().unwrap();
+    let shown = width.min(phone.content);
+    let scale = shown / vb[2];
+    for t in doc.descendants().filter(|n| n.has_tag_name("text")) {
+        let size: f64 = t
+            .attribute("font-size")
+            .unwrap()
+            .trim_end_matches("px")
+            .parse()
+            .unwrap();
+        assert!(
+            size * scale >= 10.0,
+            "{}: {:?} is {:.1} CSS px at 420 px ({size} px × {scale:.3})",
+            path.display(),
+            t.text().map(str::trim),
+            size * scale
+        );
+    }
+}
+
+/// The colour (`stroke` or `fill`) of every element the SVG draws with, and how many
+/// elements use it.
+fn colours(svg: &str) -> std::collections::HashMap<String, usize> {
+    let doc = roxmltree::Document::parse(svg).unwrap();
+    let mut out = std::collections::HashMap::new();
+    for n in doc.descendants().filter(|n| n.is_element() && !n.has_tag_name("text")) {
+        for a in ["stroke", "fill"] {
+            if let Some(c) = n.attribute(a).filter(|c| c.starts_with('#')) {
+                *out.entry(c.to_string()).or_insert(0) += 1;
+            }
+        }
+    }
+    out
+}
+
+/// Series that belong together share one colour, and different groups differ: `groups`
+/// lists each group's labels. Checked in the layout and in the SVG (each colour drawn).
+fn check_pairs(out: &Path, layouts: &[Value], file: &str, groups: &[&[&str]]) {
+    let lay = layouts.iter().find(|l| l["file"] == file).unwrap();
+    let series = lay["series"].as_array().unwrap();
+    let colour = |label: &str| -> String {
+        series
+            .iter()
+            .find(|s| s["label"] == label)
+            .unwrap_or_else(|| panic!("{file}: no series {label:?}"))["color"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    let used = colours(&std::fs::read_to_string(out.join(file)).unwrap());
+    let mut seen: Vec<String> = Vec::new();
+    for g in groups {
+        let c = colour(g[0]);
+        for label in &g[1..] {
+            assert_eq!(colour(label), c, "{file}: {label:?} is not in the colour of {:?}", g[0]);
+        }
+        assert!(
+            !seen.contains(&c),
+            "{file}: {:?} shares its colour {c} with another group",
+            g[0]
+        );
+        // drawn: the lines or dots of every member of the group, and its legend entries
+        assert!(
+            used.get(&c).copied().unwrap_or(0) > g.len(),
+            "{file}: colour {c} of {:?} is hardly drawn ({:?})",
+            g[0],
+            used.get(&c)
+        );
+        seen.push(c);
+    }
+}
+
+#[test]
+fn paired_figures_share_one_colour_per_pair() {
+    let out = build_named("pairs");
+    let layouts: Vec<Value> =
+        serde_json::from_str(&std::fs::read_to_string(out.join("figures.json")).unwrap()).unwrap();
+    let times: Vec<[String; 2]> = [10, 20, 30, 40]
+        .map(|t| [format!("t = {t} s: ensemble"), format!("t = {t} s: EKF")])
+        .to_vec();
+    let groups: Vec<Vec<&str>> = times.iter().map(|p| p.iter().map(String::as_str).collect()).collect();
+    let groups: Vec<&[&str]> = groups.iter().map(Vec::as_slice).collect();
+    check_pairs(&out, &layouts, "ensemble_encoder_ellipses.svg", &groups);
+    // the EKF's ellipse is a thin dashed line over the ensemble's wide pale one
+    let svg = std::fs::read_to_string(out.join("ensemble_encoder_ellipses.svg")).unwrap();
+    let doc = roxmltree::Document::parse(&svg).unwrap();
+    let lines: Vec<_> = doc.descendants().filter(|n| n.has_tag_name("polyline")).collect();
+    for (label, _) in groups.iter().map(|g| (g[0], ())) {
+        let lay = layouts
+            .iter()
+            .find(|l| l["file"] == "ensemble_encoder_ellipses.svg")
+            .unwrap();
+        let c = lay["series"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["label"] == label)
+            .unwrap()["color"]
+            .as_str()
+            .unwrap()
+            .to_string();
+        let of = |w: &str| {
+            lines
+                .iter()
+                .filter(|l| l.attribute("stroke") == Some(&c) && l.attribute("stroke-width") == Some(w))
+                .count()
+        };
+        assert!(of("6") >= 1, "{label}: no wide line");
+        assert!(
+            of("2") >= 20,
+            "{label}: the EKF line is not dashed ({} pieces)",
+            of("2")
+        );
+    }
+    check_pairs(
+        &out,
+        &layouts,
+        "umbmark.svg",
+        &[
+            &["ccw: truth", "ccw: odometry", "ccw: true end"],
+            &["cw: truth", "cw: odometry", "cw: true end"],
+            &["start"],
+        ],
+    );
+    check_pairs(
+        &out,
+        &layouts,
+        "ensemble_auv_sigma.svg",
+        &[
+            &["σx ensemble", "σy ensemble", "σx = σy Kalman"],
+            &["σz ensemble", "σz Kalman"],
+        ],
+    );
+    // UMBmark: the start is drawn last (on top), and the x axis spans the square and its
+    // margin, not −5…9 m: every x tick within [−1, 5]
+    let umb = layouts.iter().find(|l| l["file"] == "umbmark.svg").unwrap();
+    assert_eq!(umb["series"].as_array().unwrap().last().unwrap()["label"], "start");
+    let svg = std::fs::read_to_string(out.join("umbmark.svg")).unwrap();
+    let ticks = numeric_texts(&svg, Some("middle"));
+    assert!(ticks.iter().all(|v| (-1.0..=5.0).contains(v)), "{ticks:?}");
+    // the spy plot's rows are numbered 1…2N downwards, never negative
+    let spy = numeric_texts(&std::fs::read_to_string(out.join("brusselator_spy.svg")).unwrap(), None);
+    assert!(spy.len() > 6 && spy.iter().all(|v| *v >= 0.0), "{spy:?}");
+    // implicit Euler is dotted in the stability figure's curve as in its legend: its
+    // boundary is drawn in many short pieces
+    let stab = std::fs::read_to_string(out.join("stability_regions.svg")).unwrap();
+    let ie = stab.matches("stroke=\"#2CA02C\"").count();
+    assert!(ie > 40, "implicit Euler drawn in {ie} pieces");
+    // the stiff work–precision figures plot correct digits
+    for p in ["robertson", "van-der-pol", "orego"] {
+        let svg = std::fs::read_to_string(out.join(format!("stiff_wp_{p}_evals.svg"))).unwrap();
+        assert!(svg.contains("correct digits at t_end (mescd)"), "{p}");
+    }
+}
+
+/// The numbers among the SVG's texts (the tick labels), only those anchored at `anchor`
+/// when given (the x axis' are centred, the y axis' end at the axis).
+fn numeric_texts(svg: &str, anchor: Option<&str>) -> Vec<f64> {
+    let doc = roxmltree::Document::parse(svg).unwrap();
+    doc.descendants()
+        .filter(|n| n.has_tag_name("text"))
+        .filter(|n| anchor.is_none() || n.attribute("text-anchor") == anchor)
+        .filter_map(|n| n.text().and_then(|t| t.trim().parse::<f64>().ok()))
+        .collect()
 }
 
 /// The SVG parses, every text is at least 13 px, and no linear-axis tick is rounding noise.

@@ -133,8 +133,13 @@ fn unicycle_and_bicycle_print_their_hand_derivations() {
     );
     assert_eq!(
         u.latex(),
-        "\\frac{\\partial f}{\\partial x} = \\begin{pmatrix}\n\
-         0 & 0 & -v \\, \\sin \\theta \\\\\n0 & 0 & v \\, \\cos \\theta \\\\\n0 & 0 & 0\n\\end{pmatrix}"
+        "\\begin{aligned}\n\
+         \\frac{d}{dt} \\begin{pmatrix}\nx \\\\\ny \\\\\n\\theta\n\\end{pmatrix} &= \\begin{pmatrix}\n\
+         v \\, \\cos \\theta \\\\\nv \\, \\sin \\theta \\\\\n\\omega\n\\end{pmatrix} \\\\\n\
+         \\frac{\\partial f}{\\partial x} &= \\begin{pmatrix}\n\
+         0 & 0 & -v \\, \\sin \\theta \\\\\n0 & 0 & v \\, \\cos \\theta \\\\\n0 & 0 & 0\n\\end{pmatrix} \\\\\n\
+         \\frac{\\partial f}{\\partial u} &= \\begin{pmatrix}\n\
+         \\cos \\theta & 0 \\\\\n\\sin \\theta & 0 \\\\\n0 & 1\n\\end{pmatrix}\n\\end{aligned}"
     );
     // default names
     let d = symbolic::trace(&unicycle::model(), 3).unwrap();
@@ -160,9 +165,86 @@ fn mathml_is_well_formed_and_names_the_entries() {
     let m = u.mathml();
     let doc = roxmltree::Document::parse(&m).expect("well-formed XML");
     assert_eq!(doc.root_element().tag_name().name(), "math");
-    let rows = doc.descendants().filter(|n| n.tag_name().name() == "mtr").count();
-    assert_eq!(rows, 3);
+    // one equation per part (f, ∂f/∂x, ∂f/∂u), then the matrices: states and f (3 × 1),
+    // ∂f/∂x (3 × 3), ∂f/∂u (3 × 2)
+    let tables: Vec<_> = doc.descendants().filter(|n| n.has_tag_name("mtable")).collect();
+    let shape = |t: &roxmltree::Node| {
+        let rows: Vec<_> = t.children().filter(|n| n.has_tag_name("mtr")).collect();
+        (rows.len(), rows[0].children().filter(|n| n.has_tag_name("mtd")).count())
+    };
+    let shapes: Vec<(usize, usize)> = tables.iter().map(shape).collect();
+    assert_eq!(shapes, [(3, 1), (3, 1), (3, 1), (3, 3), (3, 2)]);
     assert!(m.contains("<mi>θ</mi>") && m.contains("<mi>sin</mi>") && m.contains("<mi>v</mi>"));
+    // every matrix's fences stretch, and the element names a math font for them
+    let fences: Vec<_> = doc
+        .descendants()
+        .filter(|n| n.has_tag_name("mo") && matches!(n.text(), Some("(") | Some(")")))
+        .collect();
+    assert!(fences.len() >= 8);
+    assert!(fences.iter().all(|f| f.attribute("stretchy") == Some("true")));
+    let style = doc.root_element().attribute("style").unwrap();
+    assert!(
+        style.contains("'STIX Two Math'") && style.contains("'DejaVu Math TeX Gyre'"),
+        "{style}"
+    );
+}
+
+/// `text`, `latex` and `mathml` print the same parts: every entry of `f`, `∂f/∂x`,
+/// `∂f/∂u` and `∂f/∂t` that the text has is in the other two.
+#[test]
+fn text_latex_and_mathml_print_the_same_parts() {
+    let tm = model!(|t: S, x: [S; 2], u: [1]| vector![x[1] * t, -x[0] * u[0]]);
+    let traced = [
+        symbolic::trace(&unicycle::model(), 3)
+            .unwrap()
+            .with_names(&["x", "y", "θ"], &["v", "ω"]),
+        symbolic::trace(&bicycle::model(0.5), 3).unwrap(),
+        symbolic::trace(&body3d::model(), 3).unwrap(),
+        symbolic::trace(&tm, 2).unwrap(),
+    ];
+    for tr in &traced {
+        let (text, latex, mathml) = (tr.text(), tr.latex(), tr.mathml());
+        let mut entries: Vec<symbolic::Expr<'_>> = (0..tr.n()).map(|i| tr.rhs(i)).collect();
+        entries.extend(tr.jacobian().map(|e| e.2));
+        entries.extend(tr.input_jacobian().map(|e| e.2));
+        entries.extend(tr.time_derivative().map(|e| e.1));
+        assert_eq!(text.lines().count(), entries.len());
+        for e in entries {
+            assert!(text.contains(&e.to_string()), "{e} not in the text");
+            assert!(latex.contains(&e.latex()), "{} not in\n{latex}", e.latex());
+            assert!(mathml.contains(&e.mathml()), "{} not in\n{mathml}", e.mathml());
+        }
+        assert_eq!(latex.contains("\\partial u"), tr.inputs() > 0);
+        assert_eq!(latex.contains("\\partial t"), tr.time_derivative().next().is_some());
+        assert_eq!(
+            mathml.contains("<mo>∂</mo><mi>t</mi>"),
+            tr.time_derivative().next().is_some()
+        );
+    }
+}
+
+/// Products print in a normal form for a reader: numeric factors folded into one leading
+/// coefficient, states before inputs before the rest, repeated factors as powers.
+#[test]
+fn products_print_normalised() {
+    let vdp = symbolic::trace(&van_der_pol(1000.0), 2).unwrap();
+    let t = vdp.text();
+    assert!(t.contains("∂ẋ₁/∂x₀ = −1 − 2000·x₀·x₁\n"), "{t}");
+    assert!(t.contains("ẋ₁ = 1000·x₁·(1 − x₀²) − x₀\n"), "{t}");
+    let rob = symbolic::trace(&robertson(), 3).unwrap().text();
+    assert!(rob.contains("ẋ₂ = 30000000·x₁²\n"), "{rob}");
+    assert!(rob.contains("∂ẋ₁/∂x₁ = −60000000·x₁ − 10000·x₂\n"), "{rob}");
+    // a negative term of a sum is subtracted, in every format
+    let orego = symbolic::trace(&orego(), 3).unwrap();
+    assert!(!orego.text().contains("+ −"), "{}", orego.text());
+    assert!(!orego.latex().contains("+ -"), "{}", orego.latex());
+    let f = model!(|_t, x: [S; 2]| vector![x[1] * 3.0 * x[0] * (-2.0), -(x[0] * x[0] * x[1])]);
+    let tr = symbolic::trace(&f, 2).unwrap();
+    assert_eq!(tr.rhs(0).to_string(), "−6·x₀·x₁");
+    assert_eq!(tr.rhs(1).to_string(), "−x₀²·x₁");
+    assert_eq!(tr.rhs(0).latex(), "-6 \\, x_{0} \\, x_{1}");
+    // and the values are the model's
+    assert_eq!(tr.rhs(0).eval(0.0, &[1.5, 2.0], &[]), -18.0);
 }
 
 mod generated {

@@ -11,9 +11,9 @@ use std::io::Write;
 pub enum Format {
     /// `f` and every non-zero `∂fᵢ/∂xⱼ`, `∂fᵢ/∂uₖ`, `∂fᵢ/∂t`, one per line.
     Text,
-    /// `∂f/∂x` as a LaTeX pmatrix.
+    /// What `text` prints (`f`, `∂f/∂x`, `∂f/∂u`, `∂f/∂t`) as LaTeX pmatrices.
     Latex,
-    /// `∂f/∂x` as a MathML `<math>` element.
+    /// What `text` prints as one MathML `<math>` element (matrices in stretchy fences).
     Mathml,
     /// Rust source of `rhs` and `jacobian` functions.
     Rust,

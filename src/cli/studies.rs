@@ -495,20 +495,33 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
     Ok(())
 }
 
-/// Error at the end time against rhs evaluations (or wall time), one line per method.
+/// Error at the end time (or, with `digits`, correct digits: the Test Set's mescd, on a
+/// linear axis) against rhs evaluations (or wall time), one line per method.
 pub fn work_precision_plot(
     title: &str,
     x_label: &str,
     methods: &[MethodKind],
     pts: &[crate::studies::work_precision::WorkPoint],
     by_time: bool,
+    digits: bool,
 ) -> Plot {
-    let mut plot = Plot::new(title, x_label, "max-norm error at t_end").log_log();
+    let mut plot = if digits {
+        let mut p = Plot::new(title, x_label, "correct digits at t_end (mescd)");
+        p.log_x = true;
+        p
+    } else {
+        Plot::new(title, x_label, "max-norm error at t_end").log_log()
+    };
     for m in methods {
         let s: Vec<(f64, f64)> = pts
             .iter()
             .filter(|w| w.method == *m)
-            .map(|w| (if by_time { w.seconds } else { w.rhs_evals as f64 }, w.error))
+            .map(|w| {
+                (
+                    if by_time { w.seconds } else { w.rhs_evals as f64 },
+                    if digits { w.digits } else { w.error },
+                )
+            })
             .collect();
         plot = plot.with(Series::new(m.name(), s, Style::LinePoints));
     }
@@ -560,16 +573,17 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
     let dir = &a.common.out;
     write_csv(
         &dir.join("work_precision.csv"),
-        "method,setting,error,rhs_evals,steps,seconds",
+        "method,setting,error,rhs_evals,steps,seconds,digits",
         pts.iter().map(|w| {
             format!(
-                "{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{}",
                 w.method.name(),
                 w.setting,
                 w.error,
                 w.rhs_evals,
                 w.steps,
-                w.seconds
+                w.seconds,
+                w.digits
             )
         }),
     )?;
@@ -577,7 +591,14 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
         ("error_vs_rhs_evals.svg", "rhs evaluations", 0),
         ("error_vs_time.svg", "wall time (s)", 1),
     ] {
-        let plot = work_precision_plot(&format!("Work–precision: {}", p.name()), xl, &ms, &pts, pick == 1);
+        let plot = work_precision_plot(
+            &format!("Work–precision: {}", p.name()),
+            xl,
+            &ms,
+            &pts,
+            pick == 1,
+            false,
+        );
         write_svg(&plot, &dir.join(file), (800, 560))?;
     }
     let mut out = Stdout::lock();

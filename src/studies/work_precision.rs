@@ -20,6 +20,11 @@ pub struct WorkPoint {
     pub setting: f64,
     /// Max-norm error at the final time against the reference.
     pub error: f64,
+    /// Correct digits at the final time, the Test Set's mixed significant digits
+    /// `mescd = −log10 max_i |y_i − r_i| / (atol/rtol + |r_i|)` with the study's atol/rtol
+    /// ratio: relative digits where `|r_i|` is above atol/rtol, absolute below
+    /// (`+∞` for an exact end state).
+    pub digits: f64,
     /// rhs evaluations.
     pub rhs_evals: u64,
     /// Accepted steps.
@@ -43,6 +48,9 @@ pub struct WorkPoint {
 /// let reference = vector![(-1.0f64).exp()];
 /// let w = work_precision(&p, &[MethodKind::Euler], &[1e-6], &[0.01, 0.001], &reference, None, 1).unwrap();
 /// assert!(w[1].error < w[0].error / 9.0 && w[1].steps == 1000);
+/// // digits: −log10(error / (1 + e⁻¹)), the error relative to atol/rtol + |reference|
+/// let d = -(w[1].error / (1.0 + (-1.0f64).exp())).log10();
+/// assert!((w[1].digits - d).abs() < 1e-12 && w[1].digits > 3.0);
 /// assert!(work_precision(&p, &[MethodKind::Euler], &[1e-6], &[1e-12], &reference, None, 1).is_err());
 /// ```
 pub fn work_precision<D: LuDim, S: System<D>>(
@@ -128,9 +136,14 @@ where
                 last = Some((end, stats));
             }
             let Some((end, stats)) = last else { continue };
+            let digits = -(end.iter().zip(reference.iter()))
+                .map(|(y, r)| (y - r).abs() / (atol_over_rtol + r.abs()))
+                .fold(0.0, f64::max)
+                .log10();
             out.push(WorkPoint {
                 method: m,
                 setting,
+                digits,
                 error: (end - reference).amax(),
                 rhs_evals: stats.rhs_evals,
                 steps: stats.accepted,

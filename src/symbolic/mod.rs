@@ -678,40 +678,140 @@ impl Traced {
         s
     }
 
-    /// `∂f/∂x` as a LaTeX `pmatrix` (`\frac{\partial f}{\partial x} = \begin{pmatrix}…`).
-    pub fn latex(&self) -> String {
-        let mut rows = vec![vec!["0".to_string(); self.n]; self.n];
+    /// The four parts [`Traced::text`] prints, as matrices of printed entries (`zero`
+    /// where structurally zero): `f` (a column, with the state names for its left-hand
+    /// side), `∂f/∂x` (n × n), `∂f/∂u` (n × m, absent without inputs) and `∂f/∂t` (a
+    /// column, absent when `f` does not read the time symbol).
+    #[allow(clippy::type_complexity)]
+    fn parts(
+        &self,
+        print: fn(&Graph, u32, &Names) -> String,
+        zero: &str,
+    ) -> (
+        Vec<Vec<String>>,
+        Vec<Vec<String>>,
+        Option<Vec<Vec<String>>>,
+        Option<Vec<Vec<String>>>,
+    ) {
+        let f = self.f.iter().map(|&id| vec![print(&self.g, id, &self.names)]).collect();
+        let mut jx = vec![vec![zero.to_string(); self.n]; self.n];
         for &(i, j, id) in &self.jx {
-            rows[i][j] = print::latex(&self.g, id, &self.names);
+            jx[i][j] = print(&self.g, id, &self.names);
         }
-        let body: Vec<String> = rows.iter().map(|r| r.join(" & ")).collect();
-        format!(
-            "\\frac{{\\partial f}}{{\\partial x}} = \\begin{{pmatrix}}\n{}\n\\end{{pmatrix}}",
-            body.join(" \\\\\n")
-        )
+        let ju = (self.m > 0).then(|| {
+            let mut ju = vec![vec![zero.to_string(); self.m]; self.n];
+            for &(i, k, id) in &self.ju {
+                ju[i][k] = print(&self.g, id, &self.names);
+            }
+            ju
+        });
+        let jt = (!self.jt.is_empty()).then(|| {
+            let mut jt = vec![vec![zero.to_string()]; self.n];
+            for &(i, id) in &self.jt {
+                jt[i][0] = print(&self.g, id, &self.names);
+            }
+            jt
+        });
+        (f, jx, ju, jt)
     }
 
-    /// `∂f/∂x` as a MathML `<math>` element: a matrix in parentheses, rows the
-    /// components of `f`, columns the states (labelled by the names).
+    /// Fonts with an OpenType MATH table, one per common system (macOS, TeX, Windows,
+    /// Linux), then the generic `math`: without one a browser's fences do not stretch.
+    pub const MATH_FONTS: &'static str =
+        "'STIX Two Math', 'Latin Modern Math', 'Cambria Math', 'DejaVu Math TeX Gyre', 'Noto Sans Math', math";
+
+    /// What [`Traced::text`] prints, in LaTeX (amsmath): an `aligned` block of `f` (as
+    /// `d/dt` of the state vector), `∂f/∂x`, `∂f/∂u` (with inputs) and `∂f/∂t` (when `f`
+    /// reads the time symbol), each a `pmatrix`.
+    ///
+    /// ```
+    /// use reckon::{models::unicycle, symbolic};
+    /// let tr = symbolic::trace(&unicycle::model(), 3).unwrap().with_names(&["x", "y", "θ"], &["v", "ω"]);
+    /// let l = tr.latex();
+    /// assert!(l.contains("\\frac{\\partial f}{\\partial x} &= \\begin{pmatrix}\n0 & 0 & -v \\, \\sin \\theta"));
+    /// assert!(l.contains("\\frac{\\partial f}{\\partial u} &= \\begin{pmatrix}\n\\cos \\theta & 0"));
+    /// ```
+    pub fn latex(&self) -> String {
+        let pm = |rows: &[Vec<String>]| {
+            let body: Vec<String> = rows.iter().map(|r| r.join(" & ")).collect();
+            format!("\\begin{{pmatrix}}\n{}\n\\end{{pmatrix}}", body.join(" \\\\\n"))
+        };
+        let (f, jx, ju, jt) = self.parts(print::latex, "0");
+        let states: Vec<Vec<String>> = (0..self.n)
+            .map(|i| vec![print::latex_name(&self.names.state(i))])
+            .collect();
+        let mut lines = vec![
+            format!("\\frac{{d}}{{dt}} {} &= {}", pm(&states), pm(&f)),
+            format!("\\frac{{\\partial f}}{{\\partial x}} &= {}", pm(&jx)),
+        ];
+        if let Some(ju) = ju {
+            lines.push(format!("\\frac{{\\partial f}}{{\\partial u}} &= {}", pm(&ju)));
+        }
+        if let Some(jt) = jt {
+            lines.push(format!("\\frac{{\\partial f}}{{\\partial t}} &= {}", pm(&jt)));
+        }
+        format!("\\begin{{aligned}}\n{}\n\\end{{aligned}}", lines.join(" \\\\\n"))
+    }
+
+    /// What [`Traced::text`] prints, as one MathML `<math>` element: a table of equations
+    /// `d/dt (x…) = f`, `∂f/∂x = …`, `∂f/∂u = …` (with inputs) and `∂f/∂t = …` (when `f`
+    /// reads the time symbol), each right-hand side a matrix in stretchy parentheses, and
+    /// the font stack the fences need to stretch named on the element.
+    ///
+    /// ```
+    /// use reckon::{models::unicycle, symbolic};
+    /// let tr = symbolic::trace(&unicycle::model(), 3).unwrap().with_names(&["x", "y", "θ"], &["v", "ω"]);
+    /// let m = tr.mathml();
+    /// assert!(m.starts_with("<math") && m.ends_with("</math>"));
+    /// assert_eq!(m.matches("stretchy=\"true\"").count() % 2, 0);
+    /// assert!(m.contains("<mi>u</mi>")); // ∂f/∂u is there, as in the text
+    /// ```
     pub fn mathml(&self) -> String {
-        let mut rows = vec![vec!["<mn>0</mn>".to_string(); self.n]; self.n];
-        for &(i, j, id) in &self.jx {
-            rows[i][j] = print::mathml(&self.g, id, &self.names);
-        }
-        let mut s = String::from(
-            "<math xmlns=\"http://www.w3.org/1998/Math/MathML\" display=\"block\"><mrow>\
-             <mfrac><mrow><mo>∂</mo><mi>f</mi></mrow><mrow><mo>∂</mo><mi>x</mi></mrow></mfrac><mo>=</mo>\
-             <mrow><mo>(</mo><mtable>",
-        );
-        for r in rows {
-            s += "<mtr>";
-            for c in r {
-                s += &format!("<mtd>{c}</mtd>");
+        let mat = |rows: &[Vec<String>]| {
+            let mut s = format!("<mrow>{}<mtable>", print::OPEN);
+            for r in rows {
+                s += "<mtr>";
+                for c in r {
+                    s += &format!("<mtd>{c}</mtd>");
+                }
+                s += "</mtr>";
             }
-            s += "</mtr>";
+            s + "</mtable>" + print::CLOSE + "</mrow>"
+        };
+        let d = |wrt: &str| {
+            format!("<mfrac><mrow><mo>∂</mo><mi>f</mi></mrow><mrow><mo>∂</mo><mi>{wrt}</mi></mrow></mfrac>")
+        };
+        let (f, jx, ju, jt) = self.parts(print::mathml, "<mn>0</mn>");
+        let states: Vec<Vec<String>> = (0..self.n)
+            .map(|i| vec![print::mathml_name(&self.names.state(i))])
+            .collect();
+        let mut eqs = vec![
+            (
+                format!(
+                    "<mrow><mfrac><mi>d</mi><mrow><mi>d</mi><mi>t</mi></mrow></mfrac>{}</mrow>",
+                    mat(&states)
+                ),
+                mat(&f),
+            ),
+            (d("x"), mat(&jx)),
+        ];
+        if let Some(ju) = ju {
+            eqs.push((d("u"), mat(&ju)));
         }
-        s += "</mtable><mo>)</mo></mrow></mrow></math>";
-        s
+        if let Some(jt) = jt {
+            eqs.push((d("t"), mat(&jt)));
+        }
+        let mut s = format!(
+            "<math xmlns=\"http://www.w3.org/1998/Math/MathML\" display=\"block\" \
+             style=\"font-family: {}\"><mtable rowspacing=\"1em\">",
+            Self::MATH_FONTS
+        );
+        for (lhs, rhs) in eqs {
+            // one cell an equation: browsers centre table cells (MathML Core has no
+            // columnalign), so the sign stays next to its left-hand side
+            s += &format!("<mtr><mtd><mrow>{lhs}<mo>=</mo>{rhs}</mrow></mtd></mtr>");
+        }
+        s + "</mtable></math>"
     }
 
     /// Rust source of two functions, `rhs(t, x, u, dx)` (`dx ← f`) and

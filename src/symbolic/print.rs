@@ -1,9 +1,16 @@
 //! Printing expressions: plain text (`−v·sin(θ)`), LaTeX, MathML and Rust source.
 //!
 //! Parentheses are the minimal ones for the usual precedence (sums < products and
-//! quotients and negation < powers < atoms); a product's or quotient's right operand
-//! keeps its parentheses when it is itself a product or quotient, so that the printed
-//! Rust evaluates in the graph's order (bit for bit the compiled evaluator's values).
+//! quotients and negation < powers < atoms); in Rust a product's or quotient's right
+//! operand keeps its parentheses when it is itself a product or quotient, so that the
+//! printed Rust evaluates in the graph's order (bit for bit the compiled evaluator's
+//! values).
+//!
+//! For a reader (text, LaTeX, MathML) a product is printed in a normal form: its numeric
+//! factors and signs folded into one leading coefficient, then the states (by index), the
+//! inputs, the time, then the other factors in the order the model wrote them, a factor
+//! repeated side by side written as a power: `x₁·2·x₀·1000` prints `2000·x₀·x₁`, `x₁·x₁`
+//! prints `x₁²`, and a sum's negative term is subtracted (`a + (−2)·x` prints `a − 2·x`).
 
 use super::Names;
 use super::graph::{Func, Graph, Node};
@@ -162,6 +169,10 @@ pub(crate) fn mathml_name(name: &str) -> String {
     }
 }
 
+/// MathML fences that stretch to their content (with a math font, see the report's CSS).
+pub(crate) const OPEN: &str = "<mo stretchy=\"true\" fence=\"true\">(</mo>";
+pub(crate) const CLOSE: &str = "<mo stretchy=\"true\" fence=\"true\">)</mo>";
+
 fn escape(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }
@@ -219,8 +230,120 @@ impl Printer<'_> {
         match self.lang {
             Lang::Text | Lang::Rust => format!("({s})"),
             Lang::Latex => format!("\\left({s}\\right)"),
-            Lang::MathMl => format!("<mrow><mo>(</mo>{s}<mo>)</mo></mrow>"),
+            Lang::MathMl => format!("<mrow>{OPEN}{s}{CLOSE}</mrow>"),
         }
+    }
+
+    /// A product's normal form: the numeric coefficient (constants and negations folded)
+    /// and the other factors, states first (by index), then inputs, the time and the rest
+    /// in their order, each with its multiplicity when it repeats (`x·x` → `(x, 2)`).
+    fn product(&self, id: u32) -> (f64, Vec<(u32, i32)>) {
+        fn collect(p: &Printer<'_>, id: u32, c: &mut f64, out: &mut Vec<u32>) {
+            if !p.bound.contains_key(&id) {
+                match p.g.node(id) {
+                    Node::Mul(a, b) => {
+                        collect(p, a, c, out);
+                        collect(p, b, c, out);
+                        return;
+                    }
+                    Node::Neg(a) => {
+                        *c = -*c;
+                        collect(p, a, c, out);
+                        return;
+                    }
+                    Node::Const(b) => {
+                        *c *= f64::from_bits(b);
+                        return;
+                    }
+                    _ => {}
+                }
+            }
+            out.push(id);
+        }
+        let (mut c, mut fs) = (1.0, Vec::new());
+        collect(self, id, &mut c, &mut fs);
+        let rank = |id: &u32| match self.g.node(*id) {
+            Node::State(i) => (0, i),
+            Node::Input(k) => (1, k),
+            Node::Time => (2, 0),
+            _ => (3, 0),
+        };
+        // stable: the other factors keep the model's order
+        fs.sort_by_key(rank);
+        let mut grouped: Vec<(u32, i32)> = Vec::new();
+        for f in fs {
+            match grouped.last_mut() {
+                Some((g, n)) if *g == f => *n += 1,
+                _ => grouped.push((f, 1)),
+            }
+        }
+        (c, grouped)
+    }
+
+    /// A product (or negation) in its normal form (see [`Printer::product`]), as
+    /// `(negative, magnitude)`: the sign of its coefficient and the rest printed.
+    fn signed_product(&self, id: u32) -> (bool, String) {
+        let (c, factors) = self.product(id);
+        let sep = match self.lang {
+            Lang::Text | Lang::MathMl => "·",
+            Lang::Latex => " \\, ",
+            Lang::Rust => " * ",
+        };
+        let mut parts = Vec::new();
+        if c.abs() != 1.0 || factors.is_empty() || c.is_nan() {
+            parts.push(self.leaf(Node::Const(c.abs().to_bits())).unwrap_or_default());
+        }
+        for (f, n) in factors {
+            parts.push(if n == 1 {
+                // parentheses only around a sum
+                self.wrap(f, 2)
+            } else {
+                self.power(self.wrap(f, 5), n)
+            });
+        }
+        let body = match self.lang {
+            Lang::MathMl => {
+                let mut s = String::from("<mrow>");
+                for (k, p) in parts.iter().enumerate() {
+                    if k > 0 {
+                        s += "<mo>·</mo>";
+                    }
+                    s += p;
+                }
+                s + "</mrow>"
+            }
+            _ => parts.join(sep),
+        };
+        (c.is_sign_negative() && !c.is_nan(), body)
+    }
+
+    fn power(&self, base: String, n: i32) -> String {
+        match self.lang {
+            Lang::Text => format!("{base}{}", superscript(n)),
+            Lang::Latex => format!("{{{base}}}^{{{n}}}"),
+            Lang::MathMl => format!("<msup>{base}<mn>{n}</mn></msup>"),
+            Lang::Rust => format!("{base}.powi({n})"),
+        }
+    }
+
+    /// A term of a sum for a reader: `(negative, magnitude)`, the magnitude wrapped for a
+    /// sum's right operand (negative constants, negations and products with a negative
+    /// coefficient are subtracted).
+    fn term(&self, id: u32) -> (bool, String) {
+        if !self.bound.contains_key(&id) {
+            match self.g.node(id) {
+                Node::Const(b) if f64::from_bits(b) < 0.0 => {
+                    return (
+                        true,
+                        self.leaf(Node::Const((-f64::from_bits(b)).to_bits()))
+                            .unwrap_or_default(),
+                    );
+                }
+                Node::Mul(..) | Node::Neg(_) => return self.signed_product(id),
+                _ => {}
+            }
+        }
+        (false, self.wrap(id, 2))
     }
 
     /// `id` printed, parenthesised when its precedence is below `min`.
@@ -254,25 +377,30 @@ impl Printer<'_> {
             Lang::Latex | Lang::Rust => "-",
         };
         match node {
+            Node::Neg(_) | Node::Mul(..) if l != Lang::Rust => {
+                let (neg, s) = self.signed_product(id);
+                match (neg, l) {
+                    (false, _) => s,
+                    (true, Lang::MathMl) => format!("<mrow><mo>−</mo>{s}</mrow>"),
+                    (true, _) => format!("{minus}{s}"),
+                }
+            }
+            Node::Add(a, b) | Node::Sub(a, b) if l != Lang::Rust => {
+                // a negative term is subtracted, a subtracted negative one added
+                let sub = matches!(node, Node::Sub(..));
+                let (neg, mag) = self.term(b);
+                let (op, s) = match (sub, neg) {
+                    (false, false) => (" + ".to_string(), self.wrap(b, 1)),
+                    (false, true) | (true, false) => (format!(" {minus} "), mag),
+                    (true, true) => (" + ".to_string(), mag),
+                };
+                self.op(self.wrap(a, 1), &op, s)
+            }
             Node::Neg(a) => {
                 let s = self.wrap(a, 2);
-                match l {
-                    Lang::MathMl => format!("<mrow><mo>−</mo>{s}</mrow>"),
-                    _ => format!("{minus}{s}"),
-                }
+                format!("{minus}{s}")
             }
-            Node::Add(a, b) => {
-                // x + (−1) prints x − 1
-                if let Some(v) = self.g.constant(b).filter(|v| *v < 0.0 && l != Lang::Rust) {
-                    let s = self.leaf(Node::Const((-v).to_bits())).unwrap_or_default();
-                    return self.op(self.wrap(a, 1), &format!(" {minus} "), s);
-                }
-                self.op(
-                    self.wrap(a, 1),
-                    " + ",
-                    self.wrap(b, if l == Lang::Rust { 2 } else { 1 }),
-                )
-            }
+            Node::Add(a, b) => self.op(self.wrap(a, 1), " + ", self.wrap(b, 2)),
             Node::Sub(a, b) => self.op(self.wrap(a, 1), &format!(" {minus} "), self.wrap(b, 2)),
             Node::Mul(a, b) => {
                 let sep = match l {
@@ -327,7 +455,7 @@ impl Printer<'_> {
                     self.expr(b)
                 ),
                 Lang::MathMl => format!(
-                    "<mrow><mi>atan2</mi><mo>&#x2061;</mo><mrow><mo>(</mo>{}<mo>,</mo>{}<mo>)</mo></mrow></mrow>",
+                    "<mrow><mi>atan2</mi><mo>&#x2061;</mo><mrow>{OPEN}{}<mo>,</mo>{}{CLOSE}</mrow></mrow>",
                     self.expr(a),
                     self.expr(b)
                 ),
@@ -402,7 +530,7 @@ impl Printer<'_> {
                         Func::Ln1p => "ln1p",
                         other => other.name(),
                     };
-                    format!("<mrow><mi>{name}</mi><mo>&#x2061;</mo><mrow><mo>(</mo>{arg}<mo>)</mo></mrow></mrow>")
+                    format!("<mrow><mi>{name}</mi><mo>&#x2061;</mo><mrow>{OPEN}{arg}{CLOSE}</mrow></mrow>")
                 }
             },
         }

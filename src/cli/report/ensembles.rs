@@ -75,20 +75,23 @@ pub(super) fn section(r: &mut Report, dir: &Path, fast: bool) -> Res {
     )
     .equal();
     let mut rows = Vec::new();
-    for t in [10usize, 20, 30, 40] {
+    for (g, t) in [10usize, 20, 30, 40].into_iter().enumerate() {
         let k = t - 1;
         let (emp, pred) = (block2(&enc.covariance(k)), block2(&enc_p[k]));
+        // one colour per time: the ensemble a wide pale line, the EKF a thin dashed line
+        // of the same colour on top, so that where they agree both stay visible
         plot = plot
-            .with(Series::new(
-                format!("t = {t} s: ensemble"),
-                ellipse(&emp, 0.95),
-                Style::Line,
-            ))
-            .with(Series::new(
-                format!("t = {t} s: EKF"),
-                ellipse(&pred, 0.95),
-                Style::Points,
-            ));
+            .with(
+                Series::new(format!("t = {t} s: ensemble"), ellipse(&emp, 0.95), Style::Line)
+                    .group(g)
+                    .width(6)
+                    .opacity(0.4),
+            )
+            .with(
+                Series::new(format!("t = {t} s: EKF"), ellipse(&pred, 0.95), Style::Line)
+                    .group(g)
+                    .dashed(6, 4),
+            );
         let c = enc.covariance(k);
         let mean = enc.mean(k);
         rows.push(vec![
@@ -112,7 +115,7 @@ pub(super) fn section(r: &mut Report, dir: &Path, fast: bool) -> Res {
         dir,
         "ensemble_encoder_ellipses.svg",
         &plot,
-        "Lines: the 95% ellipses of the ensemble's sample covariance; dots: the EKF's at the same times. The heading error turns into lateral error, so the ellipses grow across the direction of travel and turn with it.",
+        "One colour per time. Wide pale lines: the 95% ellipses of the ensemble's sample covariance; dashed lines: the EKF's at the same time. The heading error turns into lateral error, so the ellipses grow across the direction of travel and turn with it.",
     )?;
     r.table(
         &[
@@ -191,12 +194,17 @@ pub(super) fn section(r: &mut Report, dir: &Path, fast: bool) -> Res {
             })
             .collect()
     };
+    // horizontal in one colour, vertical in another: the ensemble lines, the filter dots
     sig = sig
-        .with(Series::new("σx ensemble", pick(0, true), Style::Line))
-        .with(Series::new("σy ensemble", pick(1, true), Style::Line))
-        .with(Series::new("σx = σy Kalman", pick(0, false), Style::Points))
-        .with(Series::new("σz ensemble", pick(2, true), Style::Line))
-        .with(Series::new("σz Kalman", pick(2, false), Style::Points));
+        .with(Series::new("σx ensemble", pick(0, true), Style::Line).group(0))
+        .with(
+            Series::new("σy ensemble", pick(1, true), Style::Line)
+                .group(0)
+                .dashed(7, 4),
+        )
+        .with(Series::new("σx = σy Kalman", pick(0, false), Style::Points).group(0))
+        .with(Series::new("σz ensemble", pick(2, true), Style::Line).group(1))
+        .with(Series::new("σz Kalman", pick(2, false), Style::Points).group(1));
     let _ = write!(
         r.html,
         "<h3>The underwater vehicle of the SLAM scenario</h3><p>The survey above without the sonar: dead reckoning from the measured attitude and body velocities (σ<sub>v</sub> = {sv} m/s per axis, {dt} s samples) and a depth fix every sample (σ = {sd} m), {:.0} s. The Kalman filter over the position is the SLAM filter's robot block before its first landmark (P₀ = 0.01 m²·I). Each member draws its own velocity, depth and initial errors. (The full SLAM filter, 15 states, costs 0.1 s a run: {members} members would take many minutes, so the landmarks are left out.)</p>",
@@ -206,7 +214,7 @@ pub(super) fn section(r: &mut Report, dir: &Path, fast: bool) -> Res {
         dir,
         "ensemble_auv_sigma.svg",
         &sig,
-        "Horizontally the error is a random walk, σ = √(P₀ + t·dt)·σ<sub>v</sub>; the depth sensor holds σ<sub>z</sub> near its steady state. Lines: the ensemble; dots: the filter.",
+        "Horizontally the error is a random walk, σ = √(P₀ + t·dt)·σ<sub>v</sub>; the depth sensor holds σ<sub>z</sub> near its steady state. Lines: the ensemble (σ<sub>x</sub> solid, σ<sub>y</sub> dashed); dots: the filter; one colour for the horizontal, another for the vertical.",
     )?;
     let mut nees = Plot::new(
         "Mean NEES over time (d = 3) with its 95% χ² band",

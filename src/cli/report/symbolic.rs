@@ -221,7 +221,8 @@ pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
     let n = 20;
     let tr = symbolic::trace(&crate::problems::brusselator(n), 2 * n)?;
     let p = tr.pattern();
-    let pts: Vec<(f64, f64)> = p.entries().map(|(i, j)| (j as f64 + 1.0, -(i as f64 + 1.0))).collect();
+    // row 1 at the top, as a matrix is written: a flipped y axis, not negative rows
+    let pts: Vec<(f64, f64)> = p.entries().map(|(i, j)| (j as f64 + 1.0, i as f64 + 1.0)).collect();
     let plot = Plot::new(
         format!(
             "Sparsity of ∂f/∂x: 1-D Brusselator, {n} points ({} states, {} non-zeros)",
@@ -229,9 +230,10 @@ pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
             p.nnz()
         ),
         "column j (state)",
-        "−row i (component of f)",
+        "row i (component of f)",
     )
     .equal()
+    .flip_y()
     .with(Series::new("non-zero", pts, Style::Points));
     r.figure(
         dir,

@@ -133,7 +133,9 @@ where
                 last_rejected = true;
                 continue;
             }
-            if let Some(fac) = self.crossing_factor(t, h) {
+            if self.method.crossing_test()
+                && let Some(fac) = self.crossing_factor(t, h)
+            {
                 rejected += 1;
                 h_abs = ha * fac;
                 last_rejected = true;

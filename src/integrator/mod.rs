@@ -552,6 +552,7 @@ where
                 continue;
             }
             if self.adaptive
+                && self.method.crossing_test()
                 && let Some(fac) = self.crossing_factor(self.t, h)
             {
                 self.reject_by(h, fac);
@@ -685,7 +686,8 @@ where
     /// `y₁ = −4.65·10⁷` by `t = 10¹¹`, every step within tolerance (scipy's BDF, Radau
     /// and LSODA do the same at some of `rtol` 10⁻¹ … 10⁻³). Nothing is clamped: the
     /// step is only retried shorter, and accepted once it does not cross or the
-    /// crossing agrees with `f`. One or two extra `f` calls per step that crosses.
+    /// crossing agrees with `f`. One or two extra `f` calls per step that crosses; only
+    /// for methods whose [`Method::crossing_test`] is on (the implicit ones).
     fn crossing_factor(&mut self, t: f64, h: f64) -> Option<f64> {
         let mut first: Option<(usize, f64)> = None;
         for i in 0..self.x.len() {

@@ -125,6 +125,9 @@ impl<D: LuDim> Method<D> for Auto<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    fn crossing_test(&self) -> bool {
+        self.mode == Mode::Implicit
+    }
     fn name(&self) -> &'static str {
         "auto"
     }

@@ -306,6 +306,9 @@ impl<D: LuDim> Method<D> for Bdf<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    fn crossing_test(&self) -> bool {
+        true
+    }
     fn name(&self) -> &'static str {
         if self.ndf { "bdf" } else { "bdf-plain" }
     }

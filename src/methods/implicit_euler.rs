@@ -104,6 +104,9 @@ impl<D: LuDim> Method<D> for ImplicitEuler<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    fn crossing_test(&self) -> bool {
+        true
+    }
     fn name(&self) -> &'static str {
         "implicit-euler"
     }

@@ -244,6 +244,9 @@ impl<D: LuDim> Method<D> for Rodas5P<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    fn crossing_test(&self) -> bool {
+        true
+    }
     fn name(&self) -> &'static str {
         "rodas5p"
     }

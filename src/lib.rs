@@ -62,5 +62,5 @@ pub mod __private {
 pub use options::{Options, Save, StepSize};
 pub use params::ParamModel;
 pub use problem::Problem;
-pub use solution::{Solution, Stats, Switch};
+pub use solution::{Solution, Stats, Switch, SwitchReason};
 pub use system::{ClosureModel, DualSystem, System};

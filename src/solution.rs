@@ -51,6 +51,51 @@ pub struct Switch {
     pub t: f64,
     /// The method switched to.
     pub to: &'static str,
+    /// Why, with the estimate that decided it (on the last of the steps that did).
+    pub reason: SwitchReason,
+}
+
+/// Why [`Auto`](crate::methods::Auto) switched.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum SwitchReason {
+    /// DOPRI5's step was set by the edge of its stability region: Hairer's `|h·λ|`
+    /// above [`STIFF_H_LAMBDA`](crate::methods::auto::STIFF_H_LAMBDA).
+    Stiff {
+        /// `|h·λ|` of the last step.
+        h_lambda: f64,
+    },
+    /// The other method's estimated cost per unit time (`f` evaluations per unit `t`,
+    /// see [`Auto`](crate::methods::Auto)) was lower by
+    /// [`COST_MARGIN`](crate::methods::auto::COST_MARGIN).
+    Cost {
+        /// The method in use.
+        from: f64,
+        /// The method switched to.
+        to: f64,
+    },
+}
+
+impl std::fmt::Display for SwitchReason {
+    /// ```
+    /// use reckon::SwitchReason;
+    /// assert_eq!(SwitchReason::Stiff { h_lambda: 2.5 }.to_string(), "stiff: |h·λ| = 2.5");
+    /// assert_eq!(
+    ///     SwitchReason::Cost { from: 1200.0, to: 150.0 }.to_string(),
+    ///     "cheaper: 150 against 1.2e3 f evaluations per unit time"
+    /// );
+    /// ```
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use crate::error::Brief;
+        match self {
+            SwitchReason::Stiff { h_lambda } => write!(f, "stiff: |h·λ| = {}", Brief(*h_lambda)),
+            SwitchReason::Cost { from, to } => write!(
+                f,
+                "cheaper: {} against {} f evaluations per unit time",
+                Brief(*to),
+                Brief(*from)
+            ),
+        }
+    }
 }
 
 /// A zero of an event function `g(t, x)` found during the integration.

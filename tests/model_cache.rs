@@ -249,7 +249,7 @@ fn a_parameterised_model_traces_and_gets_the_compiled_sparse_jacobian() {
     assert_eq!(tr.params(), &[2.0, 0.5]);
     assert_eq!(
         tr.jacobian_text(),
-        "∂ẋ₀/∂x₀ = −p₀\n∂ẋ₀/∂x₁ = p₁\n∂ẋ₁/∂x₀ = x₁·p₁\n∂ẋ₁/∂x₁ = p₁·x₀\n"
+        "∂ẋ₀/∂x₀ = −p₀\n∂ẋ₀/∂x₁ = p₁\n∂ẋ₁/∂x₀ = x₁·p₁\n∂ẋ₁/∂x₁ = x₀·p₁\n"
     );
     assert!(tr.rust().contains("pub const P: [f64; 2] = [2.0, 0.5];"));
     let mut j = f.sparse_jacobian(2).unwrap();

@@ -153,8 +153,8 @@ where
             };
             self.check_stiffness(h, t_new);
             self.method.accept();
-            if let Some(to) = self.method.switched() {
-                self.switches.push(super::Switch { t: t_new, to });
+            if let Some((to, reason)) = self.method.switched() {
+                self.switches.push(super::Switch { t: t_new, to, reason });
             }
             // a copy, not a swap: x_new is overwritten by the next attempt anyway
             self.x.copy_from(&self.x_new);
@@ -262,7 +262,7 @@ where
 
     /// How many of the stops ahead (from `stop_idx`, with `t_end` after the last; at
     /// most `limit`) the fixed-step loop reaches in one step each: stop `i` (`τᵢ = sᵢ − t0`)
-    /// within `10⁻¹⁰·h` of grid point `grid_k + 1 + i`, `τ = (grid_k + 1 + i)·(±h)`, the
+    /// within [`grid_tol`](super::grid_tol) of grid point `grid_k + 1 + i`, `τ = (grid_k + 1 + i)·(±h)`, the
     /// test by which the grid loop steps straight to a stop and counts it on the grid.
     /// (The grid loop takes exactly those steps: the same `h = τᵢ − τᵢ₋₁`, nonzero as
     /// consecutive grid points below 2⁵⁰ are at least `3h/4` apart; counts that far
@@ -270,7 +270,7 @@ where
     fn on_grid_run(&self, limit: usize) -> usize {
         let (t0, fixed_h) = (self.problem.t0, self.fixed_h);
         let signed_h = self.dir * fixed_h;
-        let tol = super::GRID_TOL * fixed_h;
+        let tol = self.grid_tol;
         let k0 = self.grid_k + 1;
         if k0.saturating_add(limit as u64) >= 1 << 50 {
             return 0;
@@ -335,7 +335,7 @@ where
     ) -> Result<K> {
         let t0 = self.problem.t0;
         let dir = if ROWS { 1.0 } else { self.dir };
-        let (fixed_h, max_steps) = (self.fixed_h, self.max_steps);
+        let (fixed_h, max_steps, grid_tol) = (self.fixed_h, self.max_steps, self.grid_tol);
         let signed_h = dir * fixed_h;
         let t_end = self.t_end;
         let problem = self.problem;
@@ -483,8 +483,8 @@ where
                 }
                 accepted += 1;
                 self.method.accept();
-                if let Some(to) = self.method.switched() {
-                    self.switches.push(super::Switch { t: target, to });
+                if let Some((to, reason)) = self.method.switched() {
+                    self.switches.push(super::Switch { t: target, to, reason });
                 }
                 t = target;
                 tau = target_tau;
@@ -555,20 +555,19 @@ where
                     // (the grid point on the stop first: one compare for a log at the step)
                     on_grid = stop_tau == grid;
                     if !on_grid {
-                        if !(dir * (grid - stop_tau) >= -super::GRID_TOL * fixed_h) {
+                        if !(dir * (grid - stop_tau) >= -grid_tol) {
                             let target = t0 + grid;
                             step_to!(target, grid, $src, $dst, $odd, $steps, 0);
                             grid_k += 1;
-                            if target == stop {
-                                arrive!($dst, $odd);
-                            }
+                            // (not an arrival even when `target` rounds to `stop`:
+                            // arrival is measured from t0, `grid ≠ stop_tau` here)
                             keep.keep(t, &self.$dst);
                             // the step limit, before the next step: reached only here,
                             // as every arrival sets the count to zero (max_steps ≥ 1)
                             limit!(!$odd);
                             break $half;
                         }
-                        on_grid = (stop_tau - grid).abs() <= super::GRID_TOL * fixed_h;
+                        on_grid = (stop_tau - grid).abs() <= grid_tol;
                     }
                 }
                 step_to!(stop, stop_tau, $src, $dst, $odd, $steps, 1);

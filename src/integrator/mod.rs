@@ -45,6 +45,8 @@ where
     dir: f64,
     adaptive: bool,
     fixed_h: f64,
+    /// How near a grid point a stop counts as on it ([`grid_tol`]).
+    grid_tol: f64,
     grid_k: u64,
     sub_h: Option<f64>,
     /// Breakpoints strictly inside the span, in the direction of travel; `t_end` is the
@@ -299,6 +301,7 @@ where
             dir,
             adaptive,
             fixed_h,
+            grid_tol: grid_tol(fixed_h, t0, problem.t_end),
             grid_k: 0,
             sub_h: None,
             stops,
@@ -485,7 +488,7 @@ where
             return (h, None);
         }
         let grid = grid_point(self.grid_k, self.dir * self.fixed_h);
-        let (target, target_tau) = if self.dir * (grid - stop_tau) >= -GRID_TOL * self.fixed_h {
+        let (target, target_tau) = if self.dir * (grid - stop_tau) >= -self.grid_tol {
             (stop, stop_tau)
         } else {
             (self.problem.t0 + grid, grid)
@@ -779,7 +782,9 @@ where
     /// switch inputs, reset the per-interval step count.
     fn arrive(&mut self, land: Option<f64>) {
         let Some(l) = land else { return };
-        if l == self.stop() {
+        // arrival measured from t0: a grid point whose absolute time rounds to the stop's
+        // (t0 = 1e15 resolves 0.125) is not the stop, and the next row's inputs wait
+        if l == self.stop() && self.tau == l - self.problem.t0 {
             self.attempts = 0;
             self.stop_idx += 1;
             if self.stop_idx > self.stops.len() {
@@ -806,8 +811,8 @@ where
         }
         self.last_step = (self.t, h, t_new);
         self.method.accept();
-        if let Some(to) = self.method.switched() {
-            self.switches.push(Switch { t: t_new, to });
+        if let Some((to, reason)) = self.method.switched() {
+            self.switches.push(Switch { t: t_new, to, reason });
         }
         std::mem::swap(&mut self.x, &mut self.x_new);
         self.t = t_new;
@@ -821,7 +826,7 @@ where
         } else {
             self.sub_h = None;
             let grid = grid_point(self.grid_k, self.dir * self.fixed_h);
-            if land.is_some() && (tau_new == grid || (tau_new - grid).abs() <= GRID_TOL * self.fixed_h) {
+            if land.is_some() && (tau_new == grid || (tau_new - grid).abs() <= self.grid_tol) {
                 self.grid_k += 1;
             }
         }
@@ -929,6 +934,31 @@ pub(crate) fn brief(v: f64) -> String {
 /// How near a grid point (relative to the fixed step `h`) a stop counts as on it: the
 /// step to the stop is then the step to the grid point, and the grid moves on.
 pub(super) const GRID_TOL: f64 = 1e-10;
+/// The most a step to a stop is stretched past the fixed step by [`grid_tol`]'s clock
+/// term (relative to `h`).
+const GRID_CLOCK_CAP: f64 = 1e-3;
+
+/// How near grid point `τ = k·h` a stop `s` (`τ_s = s − t0`) counts as on it:
+/// `max(10⁻¹⁰·h, min(2·ulp(max(|t0|, |t_end|)), 10⁻³·h))`. The clock term: stops are
+/// times on the caller's clock, rounded there, so `τ_s` of a row meant to be on the grid
+/// (a log at 0.05 s from `t0` = 1.7e9, ulp 2.4e-7) misses it by up to an ulp; within
+/// that the step goes straight to the stop instead of to the grid point and then a step
+/// of 10⁻⁸ `h` to the stop. Capped at 10⁻³·h: far from the epoch (t0 = 1e15 resolves
+/// 0.125 s) the grid point and the stop are distinct points of the solution, and the
+/// step to the grid point does not arrive at the stop (arrival is measured from t0).
+pub(super) fn grid_tol(fixed_h: f64, t0: f64, t_end: f64) -> f64 {
+    let far = if t_end.is_finite() {
+        t0.abs().max(t_end.abs())
+    } else {
+        t0.abs()
+    };
+    let ulp = f64::from_bits(far.to_bits() + 1) - far;
+    let h = fixed_h.abs();
+    if !h.is_finite() {
+        return GRID_TOL * h;
+    }
+    (GRID_TOL * h).max((2.0 * ulp).min(GRID_CLOCK_CAP * h))
+}
 
 /// The step factor after a trial step that came out non-finite in an adaptive run
 /// (the smallest factor of the error-test rejection, 0.2, would often retry into the same

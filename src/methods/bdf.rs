@@ -30,7 +30,7 @@ const MAX_FACTOR: f64 = 10.0;
 /// with one sign and are not damped later. The global error is then the per-step error level times the
 /// number of those steps; the many short steps of the fast transients, where most of the
 /// work goes, contribute almost nothing (their errors are damped).
-const BIAS: f64 = 6.0;
+pub(crate) const BIAS: f64 = 6.0;
 
 /// `γ_k = Σ_{j=1..k} 1/j`.
 fn gamma(k: usize) -> f64 {
@@ -242,6 +242,11 @@ where
     /// Whether this is the NDF variant.
     pub fn is_ndf(&self) -> bool {
         self.ndf
+    }
+    /// The error constant `C_q = κ_qγ_q + 1/(q+1)` of order `q` (1–5): the local error
+    /// is `C_q ∇^{q+1}y ≈ C_q h^{q+1} y⁽q⁺¹⁾`.
+    pub(crate) fn error_constant(&self, q: usize) -> f64 {
+        self.coef.error[q.min(MAX_ORDER)]
     }
 }
 

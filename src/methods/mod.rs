@@ -153,15 +153,17 @@ where
     /// After [`accept`](Method::accept): the name of the method an auto-switching method
     /// ([`Auto`]) has just switched to, once; the driver records it in
     /// [`Solution::switches`](crate::Solution::switches).
-    fn switched(&mut self) -> Option<&'static str> {
+    fn switched(&mut self) -> Option<(&'static str, crate::solution::SwitchReason)> {
         None
     }
     /// Whether the driver's crossing test applies to this method's adaptive steps (a
     /// component stepped past zero where `f` points back is retried shorter; see
     /// [`Integrator`](crate::Integrator)). On for the implicit methods, whose long steps
-    /// at a loose tolerance can carry a decaying component past zero; off for explicit
-    /// ones, whose steps are short wherever that could happen and where the one or two
-    /// `f` calls per crossing would cost 8 % on an orbit (Arenstorf at 1e-4).
+    /// at a loose tolerance can carry a decaying component past zero, and for
+    /// [`Auto`](super::Auto) in both modes (its DOPRI5 steps do the same at `rtol` 0.1
+    /// before it switches); off for the plain explicit methods, where the one or two
+    /// `f` calls per crossing would cost 8 % on an orbit (Arenstorf at 1e-4) and a
+    /// stiff problem holds the step at the stability limit anyway.
     fn crossing_test(&self) -> bool {
         false
     }

@@ -24,10 +24,10 @@ use reckon::sensitivity::{self, SensitivityOptions, Wrt};
 use reckon::{Options, Problem, model};
 use std::hint::black_box;
 
-#[path = "../tests/common/drives.rs"]
-mod drives;
 #[path = "common/cpu.rs"]
 mod cpu;
+#[path = "../tests/common/drives.rs"]
+mod drives;
 
 fn main() {
     let a: Vec<String> = std::env::args().collect();

@@ -23,7 +23,7 @@
 //!   `benches/rk45.rs` and `benches/implicit.rs`;
 //! - `all`: every section above.
 //!
-//! Not a test (`cargo test` only builds it): `all` takes about 10 minutes.
+//! Not a test (`cargo test` only builds it): `all` takes about 2 minutes on 2 cores.
 #![allow(clippy::excessive_precision)]
 
 #[path = "../tests/common/bruss.rs"]

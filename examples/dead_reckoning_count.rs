@@ -12,15 +12,20 @@
 //! the log's step); contenders: `bare` (the loop of `benches/dead_reckoning.rs`) and
 //! `solve` (`Problem::solve`, every state stored).
 //!
-//! Contender `time` times instead: bare loop and `solve` alternately, `reps` rounds, and
-//! prints the best of each and their ratio (the speed of `solve` as a fraction of the
-//! bare loop's): `cargo run --release --example dead_reckoning_count -- euler time 1000000 15`.
+//! Contender `time` times instead: bare loop and `solve` alternately (process CPU time,
+//! `reps` rounds, one run each, the order alternating; `examples/common/cpu.rs`), and
+//! prints the median (min–max) of each and of their ratio per round (the speed of `solve`
+//! as a fraction of the bare loop's):
+//! `cargo run --release --example dead_reckoning_count -- euler time 1000000 15`.
 
 use nalgebra::{Vector3, vector};
 use reckon::methods::{Exact, ExplicitEuler};
 use reckon::models::{bicycle, unicycle};
 use reckon::{Controls, Options, Problem, System};
 use std::hint::black_box;
+
+#[path = "common/cpu.rs"]
+mod cpu;
 
 const DT: f64 = 0.01;
 
@@ -91,20 +96,24 @@ fn main() {
         _ => panic!("usage: dead_reckoning_count unicycle|bicycle|euler bare|solve [n]"),
     };
     if who == "time" {
-        let mut best = [f64::INFINITY; 2];
-        for _ in 0..reps {
-            for (c, b) in best.iter_mut().enumerate() {
-                let start = std::time::Instant::now();
-                let x = run_as(if c == 0 { "bare" } else { "solve" });
-                *b = b.min(start.elapsed().as_secs_f64());
-                black_box(x);
-            }
-        }
+        let mut cs = vec![
+            cpu::Contender::new("bare", |k| {
+                for _ in 0..k {
+                    black_box(run_as("bare"));
+                }
+            }),
+            cpu::Contender::new("solve", |k| {
+                for _ in 0..k {
+                    black_box(run_as("solve"));
+                }
+            }),
+        ];
+        let t = cpu::interleave(&mut cs, reps, 0.0);
         println!(
-            "{case} {n}: bare {:.2} ms, solve {:.2} ms, ratio {:.3} (best of {reps})",
-            best[0] * 1e3,
-            best[1] * 1e3,
-            best[0] / best[1]
+            "{case} {n}: bare {}, solve {}, bare ÷ solve {} (CPU time per run, median (min–max) of {reps} interleaved rounds)",
+            cpu::fmt_time(&t[0]),
+            cpu::fmt_time(&t[1]),
+            cpu::fmt_ratio(&cpu::ratios(&t[0], &t[1]))
         );
         return;
     }

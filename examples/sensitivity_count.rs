@@ -12,9 +12,10 @@
 //! log); modes: `plain`, `params` (`Wrt::Params`) and `all` (`∂x/∂x₀` and `∂x/∂p`);
 //! methods: `rk45` (rtol 1e-8, atol 1e-10) and `ie` (implicit Euler, rtol 1e-5, atol 1e-8).
 //!
-//! With mode `time` it times instead (wall clock, best of `reps` interleaved rounds of
-//! 200 solves each of plain, all columns and params only) and prints the two ratios:
-//! `cargo run --release --example sensitivity_count -- vdp time rk45 30`.
+//! With mode `time` it times instead (process CPU time, `reps` interleaved rounds of plain,
+//! all columns and params only, batches of about 10 ms; `examples/common/cpu.rs`) and
+//! prints the times and the two ratios, median (min–max over the rounds):
+//! `cargo run --release --example sensitivity_count -- vdp time rk45 21`.
 
 use nalgebra::vector;
 use reckon::calibration::lsq::diff_drive;
@@ -23,6 +24,8 @@ use reckon::sensitivity::{self, SensitivityOptions, Wrt};
 use reckon::{Options, Problem, model};
 use std::hint::black_box;
 
+#[path = "common/cpu.rs"]
+mod cpu;
 #[path = "../tests/common/drives.rs"]
 mod drives;
 
@@ -46,25 +49,32 @@ fn main() {
     let so = if mode == "params" { &sp } else { &sa };
     macro_rules! time {
         ($p:expr, $m:expr) => {{
-            let mut best = [f64::INFINITY; 3];
-            for _ in 0..reps {
-                for (c, b) in best.iter_mut().enumerate() {
-                    let start = std::time::Instant::now();
-                    for _ in 0..200 {
-                        acc += match c {
-                            0 => $p.solve($m, black_box(&o)).unwrap().stats.accepted,
-                            1 => sensitivity::solve(&$p, $m, black_box(&o), &sa).unwrap().stats.accepted,
-                            _ => sensitivity::solve(&$p, $m, black_box(&o), &sp).unwrap().stats.accepted,
-                        };
+            let mut cs = vec![
+                cpu::Contender::new("plain", |n| {
+                    for _ in 0..n {
+                        black_box($p.solve($m, black_box(&o)).unwrap().stats.accepted);
                     }
-                    *b = b.min(start.elapsed().as_secs_f64() / 200.0);
-                }
-            }
+                }),
+                cpu::Contender::new("all", |n| {
+                    for _ in 0..n {
+                        black_box(sensitivity::solve(&$p, $m, black_box(&o), &sa).unwrap().stats.accepted);
+                    }
+                }),
+                cpu::Contender::new("params", |n| {
+                    for _ in 0..n {
+                        black_box(sensitivity::solve(&$p, $m, black_box(&o), &sp).unwrap().stats.accepted);
+                    }
+                }),
+            ];
+            let t = cpu::interleave(&mut cs, reps, 0.01);
             println!(
-                "{prob} {method}: plain {:.2} µs, all columns {:.2}×, params only {:.2}× (best of {reps})",
-                best[0] * 1e6,
-                best[1] / best[0],
-                best[2] / best[0]
+                "{prob} {method}: plain {}, all columns {} ({}×), params only {} ({}×); \
+                 CPU time per solve, median (min–max) of {reps} interleaved rounds",
+                cpu::fmt_time(&t[0]),
+                cpu::fmt_time(&t[1]),
+                cpu::fmt_ratio(&cpu::ratios(&t[1], &t[0])),
+                cpu::fmt_time(&t[2]),
+                cpu::fmt_ratio(&cpu::ratios(&t[2], &t[0])),
             );
         }};
     }

@@ -23,7 +23,7 @@
 //!
 //! Measured (2 cores, 2 Dec 2026, with native compiled Jacobians): `scaling`, 10³ → 10⁶
 //! states, marginal ns/step/state, ImplicitEuler: hand 39.9 → 54.2 (1.36×), coloured 40.9 →
-//! 56.3 (1.38×), traced 46.1 → 54.3 (1.18×); whole runs 1.2–1.7× (README table).
+//! 56.3 (1.38×), traced 46.1 → 54.3 (1.18×); whole runs 1.2–1.7× (docs/performance.md).
 //! Earlier (shared cores, before the marginal column):
 //! `scaling`, 10³ → 10⁶ states, ns/step/state: ImplicitEuler hand J 70 → 119 (1.7×),
 //! coloured 91 → 133 (1.45×); Bdf hand 95 → 163 (1.7×), coloured 108 → 159 (1.47×): the

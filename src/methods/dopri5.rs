@@ -218,9 +218,6 @@ where
             return Ok(Outcome::Done { err: 0.0 });
         }
         // the error estimate covers the controlled components only
-        let n = w.controlled.min(n);
-        let (xs, xn) = (&x.as_slice()[..n], &x_new.as_slice()[..n]);
-        let (rtol, atol) = (&w.rtol.as_slice()[..n], &w.atol.as_slice()[..n]);
         let (k1, k3, k4, k5, k6, k7) = (
             k1.as_slice(),
             k3.as_slice(),
@@ -229,13 +226,30 @@ where
             k6.as_slice(),
             k7.as_slice(),
         );
-        let mut s = 0.0;
-        for i in 0..n {
-            let e = h * (E[0] * k1[i] + E[2] * k3[i] + E[3] * k4[i] + E[4] * k5[i] + E[5] * k6[i] + E[6] * k7[i]);
-            // (a component held at exactly 0 with atol = 0 has scale 0: keep 0/0 out)
-            let sk = (atol[i] + rtol[i] * xs[i].abs().max(xn[i].abs())).max(f64::MIN_POSITIVE);
-            s += (e / sk) * (e / sk);
+        macro_rules! sum {
+            ($n:expr) => {{
+                let n = $n;
+                let (xs, xn) = (&x.as_slice()[..n], &x_new.as_slice()[..n]);
+                let (rtol, atol) = (&w.rtol.as_slice()[..n], &w.atol.as_slice()[..n]);
+                let mut s = 0.0;
+                for i in 0..n {
+                    let e =
+                        h * (E[0] * k1[i] + E[2] * k3[i] + E[3] * k4[i] + E[4] * k5[i] + E[5] * k6[i] + E[6] * k7[i]);
+                    // (a component held at exactly 0 with atol = 0 has scale 0: keep 0/0 out)
+                    let sk = (atol[i] + rtol[i] * xs[i].abs().max(xn[i].abs())).max(f64::MIN_POSITIVE);
+                    s += (e / sk) * (e / sk);
+                }
+                s
+            }};
         }
+        // all components (the default) as a loop of the state's length, which a
+        // fixed-size state knows at compile time (the run-time count cost 2–8 % of
+        // RK45's instructions: 1.05× the hand-written loop instead of 0.93–1.04×)
+        let (s, n) = if w.controlled >= n {
+            (sum!(n), n)
+        } else {
+            (sum!(w.controlled), w.controlled)
+        };
         Ok(Outcome::Done {
             err: (s / n as f64).sqrt(),
         })

@@ -183,5 +183,37 @@ fn main() {
             ks(),
         ));
     }
+    if which == "e5long" {
+        // the Test Set's own end point, t = 1e13, and its reference (y₁ ≈ 1e-290, y₄ = 0)
+        let (a, b, c, m) = E5;
+        let f = reckon::model!(|_, y: [S; 4]| {
+            let p1 = y[0].clone() * a;
+            let p2 = y[0].clone() * y[2].clone() * b;
+            let p3 = y[1].clone() * y[2].clone() * (c * m);
+            let p4 = y[3].clone() * c;
+            nalgebra::vector![
+                -p1.clone() - p2.clone(),
+                p1.clone() - p3.clone(),
+                p1 - p2.clone() - p3 + p4.clone(),
+                p2 - p4
+            ]
+        });
+        let r = [
+            1.152903278711829e-290,
+            8.86765551764212e-22,
+            8.854814626724548e-22,
+            0.0,
+        ];
+        add(run(
+            "e5long",
+            f,
+            SVector::from([1.76e-3, 0.0, 0.0, 0.0]),
+            1e13,
+            r,
+            |_| [1.7e-24; 4],
+            &ms,
+            ks(),
+        ));
+    }
     println!("wrong answers: {}, auto failures where bdf succeeds: {}", tot.0, tot.1);
 }

@@ -81,7 +81,7 @@ impl std::fmt::Display for SwitchReason {
     /// assert_eq!(SwitchReason::Stiff { h_lambda: 2.5 }.to_string(), "stiff: |h·λ| = 2.5");
     /// assert_eq!(
     ///     SwitchReason::Cost { from: 1200.0, to: 150.0 }.to_string(),
-    ///     "cheaper: 150 against 1.2e3 f evaluations per unit time"
+    ///     "cheaper: 150 against 1200 f evaluations per unit time"
     /// );
     /// ```
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

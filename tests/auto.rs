@@ -98,3 +98,58 @@ fn dense_output_and_breakpoints_across_a_switch() {
     let exact = 2.0 - (-1.0f64).exp();
     assert!((y - exact).abs() < 1e-4, "x(1.001) = {y} vs {exact}");
 }
+
+/// Cost, not only stiffness: y' = −λ(t)(y − sin t) + cos t with λ = 1 + 10⁴·e^{−(t−5)²}
+/// (exact y = sin t) is stiff only in the middle of [0, 10]. At rtol 1e-7 DOPRI5 alone
+/// needs 34 604 `f` calls, BDF alone 584 (`examples/auto_cost.rs`); Auto goes to BDF
+/// before DOPRI5's step reaches its stability boundary, because BDF's estimated cost per
+/// unit time is lower, comes back once λ has decayed, and says why each time.
+#[test]
+fn auto_switches_by_estimated_cost_and_records_why() {
+    use reckon::SwitchReason;
+    let mid = model!(|t, y: [S; 1]| vector![
+        (y[0].clone() - t.sin()) * -(1.0 + 1e4 * (-(t - 5.0) * (t - 5.0)).exp()) + t.cos()
+    ]);
+    let p = Problem::new(&mid, vector![0.0], (0.0, 10.0));
+    let o = Options::default().rtol(1e-7).atol(1e-7).max_steps(1_000_000);
+    let auto = p.solve(Auto::default(), &o).unwrap();
+    let bdf = p.solve(Bdf::default(), &o).unwrap();
+    let rk = p.solve(Dopri5::default(), &o).unwrap();
+    assert!((auto.last().1[0] - 10f64.sin()).abs() < 1e-5, "{}", auto.last().1[0]);
+    let sw = &auto.switches;
+    assert_eq!(sw.len(), 2, "{sw:?}");
+    assert_eq!((sw[0].to, sw[1].to), ("bdf", "rk45"));
+    // into BDF where λ is some hundreds (t ≈ 2.9), before DOPRI5 is held by stability
+    assert!((2.5..3.5).contains(&sw[0].t), "{sw:?}");
+    assert!(
+        matches!(sw[0].reason, SwitchReason::Cost { from, to } if to * 2.0 < from),
+        "{sw:?}"
+    );
+    // back once λ has decayed again
+    assert!((7.0..9.5).contains(&sw[1].t), "{sw:?}");
+    assert!(
+        matches!(sw[1].reason, SwitchReason::Cost { from, to } if to * 2.0 < from),
+        "{sw:?}"
+    );
+    assert!(
+        auto.stats.rhs_evals * 20 < rk.stats.rhs_evals,
+        "{} vs {}",
+        auto.stats.rhs_evals,
+        rk.stats.rhs_evals
+    );
+    assert!(
+        auto.stats.rhs_evals < 2 * bdf.stats.rhs_evals,
+        "{} vs {}",
+        auto.stats.rhs_evals,
+        bdf.stats.rhs_evals
+    );
+    // a switch for stiffness carries Hairer's estimate above the threshold
+    let vdp = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 100.0))
+        .solve(Auto::default(), &Options::default().rtol(1e-6).atol(1e-6))
+        .unwrap();
+    assert!(
+        matches!(vdp.switches[0].reason, SwitchReason::Stiff { h_lambda } if h_lambda > reckon::methods::auto::STIFF_H_LAMBDA),
+        "{:?}",
+        vdp.switches
+    );
+}

@@ -119,7 +119,7 @@ where
             w.copy_from(x);
         }
         let mut fact = 1.0;
-        for l in 1..len {
+        for (l, o) in out.iter_mut().enumerate().take(len).skip(1) {
             for i in (l..len).rev() {
                 let dt = self.t[i] - self.t[i - l];
                 let (a, b) = self.work.split_at_mut(i);
@@ -130,7 +130,7 @@ where
             let w = &self.work[l];
             let m = m.min(w.len()).max(1);
             let s: f64 = (0..m).map(|i| (w[i] / scale[i]).powi(2)).sum();
-            out[l] = fact * (s / m as f64).sqrt();
+            *o = fact * (s / m as f64).sqrt();
         }
         out
     }

@@ -381,8 +381,8 @@ where
 /// // Van der Pol, μ = 1
 /// let f = model!(|_, x: [S; 2]| vector![x[1].clone(), (1.0 - x[0] * x[0]) * x[1] - x[0]]);
 /// let tr = symbolic::trace(&f, 2).unwrap();
-/// assert_eq!(tr.rhs(1).to_string(), "x₁·(1 − x₀·x₀) − x₀");
-/// assert_eq!(tr.jacobian_entry(1, 0).unwrap().to_string(), "−1 − x₁·2·x₀");
+/// assert_eq!(tr.rhs(1).to_string(), "x₁·(1 − x₀²) − x₀");
+/// assert_eq!(tr.jacobian_entry(1, 0).unwrap().to_string(), "−1 − 2·x₀·x₁");
 /// assert_eq!(tr.jacobian_entry(0, 0), None); // a structural zero
 /// ```
 #[derive(Clone)]

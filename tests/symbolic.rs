@@ -39,20 +39,20 @@ where
         let mut jd = OMatrix::<f64, nalgebra::Const<N>, nalgebra::Const<N>>::zeros();
         f.jacobian(t, &x, &u, &mut jd);
         let mut js = vec![f64::NAN; N * N];
-        compiled.eval_dense(t, x.as_slice(), &u, &mut js);
+        compiled.eval_dense(t, x.as_slice(), &u, &mut js).unwrap();
         assert!(
             close(&js, jd.as_slice(), 1e-14),
             "{name} at x = {x:?}, u = {u:?}:\nsymbolic {js:?}\nnum-dual {jd}"
         );
         // native code and the interpreter agree bit for bit
         let mut ji = vec![f64::NAN; N * N];
-        interpreted.eval_dense(t, x.as_slice(), &u, &mut ji);
+        interpreted.eval_dense(t, x.as_slice(), &u, &mut ji).unwrap();
         assert_eq!(bits(&js), bits(&ji), "{name}: native and interpreted differ");
         // and through the sparse interface
         let mut v = vec![0.0; compiled.pattern().nnz()];
-        compiled.eval(t, x.as_slice(), &u, &mut v);
+        compiled.eval(t, x.as_slice(), &u, &mut v).unwrap();
         let mut vi = vec![0.0; v.len()];
-        interpreted.eval(t, x.as_slice(), &u, &mut vi);
+        interpreted.eval(t, x.as_slice(), &u, &mut vi).unwrap();
         assert_eq!(bits(&v), bits(&vi), "{name}: native and interpreted CSC values differ");
         for ((i, j), val) in compiled.pattern().entries().zip(&v) {
             assert_eq!(
@@ -93,14 +93,15 @@ fn brusselator_matches_num_dual_and_is_pentadiagonal() {
     let mut jd = DMatrix::zeros(2 * n, 2 * n);
     f.jacobian(0.0, &x, &[], &mut jd);
     let mut js = vec![0.0; 4 * n * n];
-    compiled.eval_dense(0.0, x.as_slice(), &[], &mut js);
+    compiled.eval_dense(0.0, x.as_slice(), &[], &mut js).unwrap();
     assert!(close(&js, jd.as_slice(), 1e-14));
     // 100 states: native code writes the CSC values, which are scattered into the matrix
     let mut ji = vec![0.0; 4 * n * n];
     compiled
         .clone()
         .interpreted()
-        .eval_dense(0.0, x.as_slice(), &[], &mut ji);
+        .eval_dense(0.0, x.as_slice(), &[], &mut ji)
+        .unwrap();
     assert_eq!(bits(&js), bits(&ji));
     // u_i couples to u_{i−1}, u_i, v_i, u_{i+1}; v_i to v_{i−1}, u_i, v_i, v_{i+1}
     let mut e = Vec::new();
@@ -263,7 +264,7 @@ fn rust_source_is_the_checked_in_file_and_evaluates_to_the_same_matrix() {
     let mut jac = [0.0; 9];
     generated::jacobian(0.0, &x, &u, &mut jac);
     let mut want = [f64::NAN; 9];
-    tr.compile_jacobian().eval_dense(0.0, &x, &u, &mut want);
+    tr.compile_jacobian().eval_dense(0.0, &x, &u, &mut want).unwrap();
     assert_eq!(jac, want);
     let mut dx = [0.0; 3];
     generated::rhs(0.0, &x, &u, &mut dx);
@@ -425,9 +426,9 @@ proptest! {
         let tr = symbolic::trace(&f, 3).unwrap();
         let mut js = vec![0.0; 9];
         let mut c = tr.compile_jacobian();
-        c.eval_dense(0.0, &x, &[], &mut js);
+        c.eval_dense(0.0, &x, &[], &mut js).unwrap();
         let mut ji = vec![0.0; 9];
-        c.interpreted().eval_dense(0.0, &x, &[], &mut ji);
+        c.interpreted().eval_dense(0.0, &x, &[], &mut ji).unwrap();
         prop_assert_eq!(bits(&js), bits(&ji), "native and interpreted differ");
         // Relative to the row's largest entry: an entry that is zero by cancellation (the
         // derivative of `atan2(c/x₂, x₀/x₂)` in x₂ is 0) is computed from chain-rule terms

@@ -84,7 +84,7 @@ where
                         col[i] += h * fp[i];
                     }
                 }
-                lu.solve_in_place(&mut col);
+                lu.solve_in_place(&mut col)?;
                 s_col.copy_from_slice(col.as_slice());
             }
             z.rows_mut(0, n).copy_from_slice(x1.as_slice());

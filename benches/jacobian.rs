@@ -37,13 +37,17 @@ fn small<const N: usize>(
     });
     g.bench_function("symbolic", |b| {
         b.iter(|| {
-            compiled.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js);
+            compiled
+                .eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js)
+                .unwrap();
             black_box(&js);
         })
     });
     g.bench_function("symbolic-interpreted", |b| {
         b.iter(|| {
-            interpreted.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js);
+            interpreted
+                .eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js)
+                .unwrap();
             black_box(&js);
         })
     });
@@ -80,20 +84,20 @@ fn jacobians(c: &mut Criterion) {
     });
     g.bench_function(BenchmarkId::new("symbolic", "dense"), |b| {
         b.iter(|| {
-            compiled.eval_dense(0.0, black_box(x.as_slice()), &[], &mut js);
+            compiled.eval_dense(0.0, black_box(x.as_slice()), &[], &mut js).unwrap();
             black_box(&js);
         })
     });
     g.bench_function(BenchmarkId::new("symbolic", "csc"), |b| {
         b.iter(|| {
-            compiled.eval(0.0, black_box(x.as_slice()), &[], &mut vals);
+            compiled.eval(0.0, black_box(x.as_slice()), &[], &mut vals).unwrap();
             black_box(&vals);
         })
     });
     let mut interpreted = compiled.clone().interpreted();
     g.bench_function(BenchmarkId::new("symbolic-interpreted", "csc"), |b| {
         b.iter(|| {
-            interpreted.eval(0.0, black_box(x.as_slice()), &[], &mut vals);
+            interpreted.eval(0.0, black_box(x.as_slice()), &[], &mut vals).unwrap();
             black_box(&vals);
         })
     });

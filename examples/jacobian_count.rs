@@ -28,7 +28,8 @@ fn run<const N: usize>(
         }
         let mut j = vec![0.0; N * N];
         for _ in 0..reps {
-            c.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut j);
+            c.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut j)
+                .unwrap();
             acc += black_box(&j)[N * (N - 1)];
         }
     }

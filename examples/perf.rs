@@ -644,13 +644,13 @@ fn jac_small<const M: usize>(name: &str, f: &impl System<Const<M>>, x: SVector<f
         }),
         Contender::new("symbolic", |n| {
             for _ in 0..n {
-                compiled.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js);
+                compiled.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js).unwrap();
                 black_box(&js);
             }
         }),
         Contender::new("interpreted", |n| {
             for _ in 0..n {
-                interpreted.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js2);
+                interpreted.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js2).unwrap();
                 black_box(&js2);
             }
         }),
@@ -713,19 +713,19 @@ fn jacobian(rounds: usize) {
         }),
         Contender::new("symbolic dense", |k| {
             for _ in 0..k {
-                compiled.eval_dense(0.0, black_box(x.as_slice()), &[], &mut js);
+                compiled.eval_dense(0.0, black_box(x.as_slice()), &[], &mut js).unwrap();
                 black_box(&js);
             }
         }),
         Contender::new("symbolic csc", |k| {
             for _ in 0..k {
-                compiled2.eval(0.0, black_box(x.as_slice()), &[], &mut vals);
+                compiled2.eval(0.0, black_box(x.as_slice()), &[], &mut vals).unwrap();
                 black_box(&vals);
             }
         }),
         Contender::new("interpreted csc", |k| {
             for _ in 0..k {
-                interpreted.eval(0.0, black_box(x.as_slice()), &[], &mut vals2);
+                interpreted.eval(0.0, black_box(x.as_slice()), &[], &mut vals2).unwrap();
                 black_box(&vals2);
             }
         }),

@@ -398,7 +398,7 @@ fn lu_pair(n: usize, e: &[(usize, usize)], reps: usize) -> (f64, f64) {
     let ts = time(reps, || {
         assert_eq!(lu.factor(&vals), Ok(true));
         let mut x = b.clone();
-        lu.solve_in_place(x.as_mut_slice());
+        lu.solve_in_place(x.as_mut_slice()).unwrap();
         std::hint::black_box(x);
     });
     (td, ts)

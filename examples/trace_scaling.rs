@@ -22,7 +22,7 @@ fn main() {
     let x = reckon::problems::brusselator_y0(n);
     let mut v = vec![0.0; jac.pattern().nnz()];
     let t3 = Instant::now();
-    jac.eval(0.0, x.as_slice(), &[], &mut v);
+    jac.eval(0.0, x.as_slice(), &[], &mut v).unwrap();
     let t4 = Instant::now();
     println!(
         "N = {n} ({} states): trace {:.3} s ({nodes} nodes), compile {:.3} s ({} instructions), one evaluation {:.3} ms ({} non-zeros), peak RSS {:.0} MiB",

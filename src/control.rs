@@ -75,21 +75,48 @@ where
     /// How many leading components enter the error estimate ([`Options::error_components`](crate::Options::error_components));
     /// the rest are integrated but not controlled.
     pub controlled: usize,
+    /// The error of the components that are not controlled, of the last estimate
+    /// ([`uncontrolled`](Self::uncontrolled)): watched, not used for the steps.
+    rest: std::cell::Cell<f64>,
+    /// When the uncontrolled components are the columns of a sensitivity matrix, each
+    /// `controlled` long: each column's scale `p̄` (the magnitude of what it is the
+    /// derivative with respect to).
+    columns: Option<Vec<f64>>,
 }
 
 impl<D: Dim> Weights<D>
 where
     DefaultAllocator: Allocator<D>,
 {
+    /// Tolerances per component, the first `controlled` of them in the error estimate.
+    pub fn new(rtol: OVector<f64, D>, atol: OVector<f64, D>, controlled: usize) -> Self {
+        Weights {
+            rtol,
+            atol,
+            controlled,
+            rest: std::cell::Cell::new(0.0),
+            columns: None,
+        }
+    }
+
+    /// Treat the uncontrolled components as the columns of a sensitivity matrix, column
+    /// `k` the derivative with respect to a quantity of magnitude `scales[k]`
+    /// ([`uncontrolled`](Self::uncontrolled)).
+    pub(crate) fn set_columns(&mut self, scales: Vec<f64>) {
+        self.columns = Some(scales);
+    }
+
     /// RMS norm `sqrt(1/m Σ_{i<m} (e_i / (atol_i + rtol_i·max(|x0_i|, |x1_i|)))²)` over the
-    /// `m =` [`controlled`](Self::controlled) leading components.
+    /// `m =` [`controlled`](Self::controlled) leading components. The error of the other
+    /// components is kept as [`uncontrolled`](Self::uncontrolled).
     ///
     /// ```
     /// use reckon::control::Weights;
     /// use nalgebra::vector;
-    /// let w = Weights { rtol: vector![0.0, 0.0, 0.0], atol: vector![1.0, 2.0, 1.0], controlled: 2 };
+    /// let w = Weights::new(vector![0.0, 0.0, 0.0], vector![1.0, 2.0, 1.0], 2);
     /// let e = w.norm(&vector![3.0, 8.0, 1e9], &vector![0.0, 0.0, 0.0], &vector![0.0, 0.0, 0.0]);
     /// assert!((e - (12.5f64).sqrt()).abs() < 1e-15); // sqrt((9 + 16)/2): the third is not controlled
+    /// assert_eq!(w.uncontrolled(), 1e9); // but watched: 1e9 against atol 1 (its magnitude is 0)
     /// ```
     #[inline]
     pub fn norm(&self, e: &OVector<f64, D>, x0: &OVector<f64, D>, x1: &OVector<f64, D>) -> f64 {
@@ -100,7 +127,75 @@ where
             let r = e[i] / sk;
             s += r * r;
         }
+        if m < e.len() {
+            self.rest_from(|i| e[i], x0.as_slice(), x1.as_slice());
+        }
         (s / m.max(1) as f64).sqrt()
+    }
+
+    /// Set [`uncontrolled`](Self::uncontrolled) from the error estimate `e(i)` of the
+    /// components past [`controlled`](Self::controlled) (`x0`, `x1`: the whole state at
+    /// the step's ends).
+    pub(crate) fn rest_from(&self, e: impl Fn(usize) -> f64, x0: &[f64], x1: &[f64]) {
+        let (m, n) = (self.controlled.min(x0.len()), x0.len());
+        if n == m {
+            self.rest.set(0.0);
+            return;
+        }
+        let big = (m..n).fold(0.0f64, |a, i| a.max(x0[i].abs()).max(x1[i].abs()));
+        let mut s = 0.0;
+        for i in m..n {
+            let floor = match &self.columns {
+                Some(scales) if m > 0 => {
+                    let (row, col) = ((i - m) % m, (i - m) / m);
+                    let x = x0[row].abs().max(x1[row].abs());
+                    (x + self.atol[row]) / scales.get(col).copied().unwrap_or(1.0)
+                }
+                _ => self.atol[i],
+            };
+            let r = e(i) / (big + floor).max(f64::MIN_POSITIVE);
+            s += r * r;
+        }
+        self.rest.set((s / (n - m) as f64).sqrt());
+    }
+
+    /// The local error estimate of the components that are not controlled, relative to
+    /// their largest magnitude `M` (of any of them, at either end of the step): the RMS
+    /// of `e_i / (M + a_i)`, from the last attempt of a method that estimates it (0 when
+    /// all are controlled, before any estimate, and for methods without one). One
+    /// magnitude for all of them because they are the columns of a sensitivity matrix
+    /// (an entry near 0 among entries near 600 is accurate at 600's scale), and no
+    /// `rtol`: the watch is for answers wrong by orders of magnitude, not for accuracy
+    /// (the driver refuses a step above [`crate::sensitivity::UNRESOLVED`]). The floor
+    /// `a_i` is `atol_i`; for the columns of `S` it is `(|x_r| + atol_r)/p̄_k` (row `r`,
+    /// column `k`), the natural size of `∂x_r/∂q_k` for a quantity `q_k` of magnitude
+    /// `p̄_k` (CVODES scales sensitivity tolerances by `p̄` the same way), so that `S`
+    /// near 0 at the start of a run (parameter columns start at 0) is not judged
+    /// against itself.
+    ///
+    /// ```
+    /// use reckon::control::Weights;
+    /// use nalgebra::vector;
+    /// let w = Weights::new(vector![1e-6, 1e-6, 1e-6], vector![1e-9, 1e-9, 1e-9], 1);
+    /// // the last two are a column of S, near 600 and near 0; errors 6 and 0
+    /// w.norm(&vector![0.0, 6.0, 0.0], &vector![1.0, 600.0, 0.0], &vector![1.0, 600.0, 1e-3]);
+    /// assert!((w.uncontrolled() - 0.01 / 2f64.sqrt()).abs() < 1e-12); // 1 % of 600, RMS over 2
+    /// ```
+    pub fn uncontrolled(&self) -> f64 {
+        self.rest.get()
+    }
+
+    /// Raise [`uncontrolled`](Self::uncontrolled) to `v` (a second estimate of the same
+    /// relative error; the larger counts).
+    pub(crate) fn raise_uncontrolled(&self, v: f64) {
+        if v > self.rest.get() {
+            self.rest.set(v);
+        }
+    }
+
+    /// Forget the last [`uncontrolled`](Self::uncontrolled) estimate.
+    pub(crate) fn clear_uncontrolled(&self) {
+        self.rest.set(0.0);
     }
 
     /// Scale of component `i` at state `x`: `atol_i + rtol_i·|x_i|` (at least the

@@ -152,6 +152,25 @@ pub enum Error {
         /// Why the data do not determine it.
         reason: String,
     },
+    /// The sensitivities `S = ∂x/∂(x₀, p)` are not resolved by the steps: outside the
+    /// error control (the default, [`SensitivityOptions::error_control`](crate::sensitivity::SensitivityOptions::error_control)
+    /// off) their local error estimate on an accepted step exceeded
+    /// [`sensitivity::UNRESOLVED`](crate::sensitivity::UNRESOLVED) of their size, so the
+    /// returned `S` would be wrong, by orders of magnitude on long spans (for example when
+    /// `x` sits still on an unstable equilibrium while `S` grows).
+    #[error(
+        "the sensitivities are not resolved by the steps chosen for x: at t = {} with h = {} their local error estimate is {ratio:.3e} of their size (at most 0.1); solve with SensitivityOptions::error_control(true)",
+        Brief(*.t),
+        Brief(*.h)
+    )]
+    SensitivityUnresolved {
+        /// Start of the step.
+        t: f64,
+        /// Its size.
+        h: f64,
+        /// The local error estimate of `S` relative to its size.
+        ratio: f64,
+    },
     /// A least-squares fit did not converge.
     #[error("the {what} fit did not converge: {reason}")]
     FitFailed {

@@ -14,10 +14,11 @@ pub trait Lu<D: nalgebra::Dim>: Sized
 where
     nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D> + nalgebra::allocator::Allocator<D, D>,
 {
-    /// Factor `m`; `None` when it is singular or has non-finite pivots.
+    /// Factor `m`; `None` when it is singular, has non-finite pivots or is not square.
     fn factor(m: &OMatrix<f64, D, D>) -> Option<Self>;
-    /// `b ← M⁻¹·b`.
-    fn solve_in_place(&self, b: &mut OVector<f64, D>);
+    /// `b ← M⁻¹·b`; [`Error::InvalidInput`](crate::Error::InvalidInput) (and `b`
+    /// untouched) when `b` does not have as many entries as `M` has rows.
+    fn solve_in_place(&self, b: &mut OVector<f64, D>) -> crate::Result<()>;
 }
 
 /// Dimensions that know their LU backend.
@@ -46,8 +47,9 @@ macro_rules! fixed_lu {
                 let ok = (0..$n).all(|i| u[(i, i)] != 0.0 && u[(i, i)].is_finite());
                 ok.then_some(FixedLu(lu))
             }
-            fn solve_in_place(&self, b: &mut SVector<f64, $n>) {
+            fn solve_in_place(&self, b: &mut SVector<f64, $n>) -> crate::Result<()> {
                 self.0.solve_mut(b);
+                Ok(())
             }
         }
         impl LuDim for Const<$n> {
@@ -58,11 +60,26 @@ macro_rules! fixed_lu {
 fixed_lu!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31 32);
 
 /// faer's LU with partial pivoting, for large dynamic systems.
+///
+/// ```
+/// use reckon::linalg::{DynLu, Lu};
+/// use nalgebra::{dmatrix, dvector};
+/// let lu = DynLu::factor(&dmatrix![2.0, 0.0; 0.0, 4.0]).unwrap();
+/// let mut b = dvector![2.0, 8.0];
+/// lu.solve_in_place(&mut b).unwrap();
+/// assert_eq!(b, dvector![1.0, 2.0]);
+/// let e = lu.solve_in_place(&mut dvector![1.0, 2.0, 3.0]).unwrap_err();
+/// assert_eq!(e.to_string(), "invalid rhs: 3 entries for a 2 × 2 matrix");
+/// assert!(DynLu::factor(&dmatrix![1.0, 2.0, 3.0]).is_none()); // not square
+/// ```
 pub struct DynLu(faer::linalg::solvers::PartialPivLu<f64>);
 
 impl Lu<Dyn> for DynLu {
     fn factor(m: &DMatrix<f64>) -> Option<Self> {
         let (r, c) = m.shape();
+        if r != c {
+            return None;
+        }
         let view = faer::MatRef::from_column_major_slice(m.as_slice(), r, c);
         let lu = view.partial_piv_lu();
         let u = lu.U();
@@ -72,11 +89,19 @@ impl Lu<Dyn> for DynLu {
         });
         ok.then_some(DynLu(lu))
     }
-    fn solve_in_place(&self, b: &mut DVector<f64>) {
+    fn solve_in_place(&self, b: &mut DVector<f64>) -> crate::Result<()> {
         use faer::linalg::solvers::Solve;
         let n = b.len();
+        let rows = self.0.L().nrows();
+        if n != rows {
+            return Err(crate::Error::invalid(
+                "rhs",
+                format!("{n} entries for a {rows} × {rows} matrix"),
+            ));
+        }
         let rhs = faer::MatMut::from_column_major_slice_mut(b.as_mut_slice(), n, 1);
         self.0.solve_in_place(rhs);
+        Ok(())
     }
 }
 

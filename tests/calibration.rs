@@ -89,7 +89,8 @@ fn censi_recovers_noise_free_parameters_to_1e9() {
 fn censi_estimates_lie_within_their_reported_covariance() {
     let mut misses = 0;
     for seed in 1..=20 {
-        let fit = censi::calibrate(&intervals(Some((seed, 0.002, 0.001))), censi::Trim::default()).unwrap();
+        // Gaussian noise and no failed matches: nothing to trim (trimming would cut the tails)
+        let fit = censi::calibrate(&intervals(Some((seed, 0.002, 0.001))), censi::Trim::NONE).unwrap();
         let i = fit
             .estimate
             .names

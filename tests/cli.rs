@@ -530,6 +530,52 @@ fn study_commands_write_files_and_json() {
     assert!(pts[1]["error"].as_f64().unwrap() < pts[0]["error"].as_f64().unwrap());
 }
 
+/// Issue 38 item 8: work-precision plots correct digits (mescd), so that Robertson at
+/// t = 10¹¹ (y₂ ≈ 8·10⁻¹⁴) reads by its relative accuracy; the table prints them too.
+#[test]
+fn work_precision_plots_correct_digits() {
+    let args = [
+        "work-precision",
+        "--problem",
+        "robertson",
+        "--methods",
+        "bdf,rodas5p",
+        "--tolerances",
+        "1e-4,1e-7",
+        "--runs",
+        "1",
+    ];
+    let o = study(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("digits_vs_rhs_evals.svg, digits_vs_time.svg"), "{text}");
+    let out = dir().join(format!("study-{}", args.join("-").replace(['/', ','], "_")));
+    for f in ["digits_vs_rhs_evals.svg", "digits_vs_time.svg"] {
+        let svg = std::fs::read_to_string(out.join(f)).unwrap();
+        assert!(svg.contains("correct digits at t_end (mescd)"), "{f}");
+    }
+    assert!(!out.join("error_vs_rhs_evals.svg").exists());
+    // rows: method, setting, digits, error, …: a tighter tolerance gains digits, and the
+    // absolute error says nothing of them (every run's is below 1e-6 here)
+    for m in ["bdf", "rodas5p"] {
+        let rows: Vec<Vec<f64>> = text
+            .lines()
+            .filter(|l| l.starts_with(m))
+            .map(|l| l.split_whitespace().skip(1).map(|v| v.parse().unwrap()).collect())
+            .collect();
+        assert_eq!(rows.len(), 2, "{text}");
+        // more digits at the tighter tolerance, and at least −log10(rtol) − 2 (issue 33)
+        assert!(
+            rows[1][1] > rows[0][1] + 1.0,
+            "{m}: digits {} then {}",
+            rows[0][1],
+            rows[1][1]
+        );
+        assert!(rows[0][1] >= 2.0 && rows[1][1] >= 5.0, "{m}: {rows:?}");
+        assert!(rows[0][2] < 1e-6, "{m}: max error {}", rows[0][2]);
+    }
+}
+
 #[test]
 fn bad_study_inputs() {
     fails(

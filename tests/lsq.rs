@@ -188,3 +188,55 @@ fn encoder_log_calibration_recovers_injected_geometry() {
     }
     assert_eq!(f.estimate.names[2], "wheel separation");
 }
+
+/// Issue 38 item 7: with σ = 10⁻⁵ the weighted residuals at the nominal start have
+/// ‖r‖ ≈ 10⁶, where argmin's `GaussNewtonLS` stalled (its Armijo test compares a decrease
+/// of ‖r‖ with the slope of ½‖r‖², so no step length passed above ‖r‖ = 10⁴) and returned
+/// the start as converged. Levenberg–Marquardt moves to the truth.
+#[test]
+fn a_start_with_large_residuals_is_not_returned_as_the_optimum() {
+    let u = drives::wheel_speed_log();
+    let t = times();
+    let obs = observe(&truth_poses(&u, &TRUTH, &t), t, [1e-5, 1e-5, 1e-5], None);
+    let f = fit(&obs, &u).unwrap();
+    for (got, want) in f.estimate.value.iter().zip(TRUTH) {
+        assert!((got - want).abs() < 1e-8 * want, "{got} vs {want}");
+    }
+    assert!(f.iterations >= 2, "{} steps", f.iterations);
+}
+
+/// A fit that cannot move from its start (here every other parameter value fails to
+/// build a model) is `FitFailed`, not the start with standard deviations.
+#[test]
+fn a_fit_that_cannot_move_is_an_error_not_the_start() {
+    let build = |p: &[f64]| {
+        if p[0] != 0.2 {
+            return Err(Error::invalid("p", "the model exists at k = 0.2 only"));
+        }
+        reckon::model!(|_, x: [S; 1], u: [1], p: [S; 1] = [1.0]| vector![-(p[0] * x[0])]).with_params(p)
+    };
+    let t: Vec<f64> = (1..=10).map(|k| 0.3 * k as f64).collect();
+    let obs = Observations {
+        y: t.iter().map(|t| vec![(-0.7 * t).exp()]).collect(),
+        t,
+        components: vec![0],
+        sigma: vec![1e-3],
+        angles: vec![],
+    };
+    let u = Controls::new(vec![0.0], vec![vec![0.0]]).unwrap();
+    let r = lsq::fit(
+        &build,
+        &[0.2],
+        &vector![1.0],
+        0.0,
+        &u,
+        &obs,
+        Dopri5::default(),
+        &Options::default().rtol(1e-10).atol(1e-12),
+        &LsqOptions::default(),
+    );
+    match r {
+        Err(Error::FitFailed { reason, .. }) => assert!(reason.contains("no step"), "{reason}"),
+        other => panic!("expected FitFailed, got {other:?}"),
+    }
+}

@@ -24,7 +24,7 @@ fn counts(records: usize, traces: usize, compiles: usize) -> TraceCounts {
 fn sparse_dense(jac: &mut dyn SparseJacobian, t: f64, x: &[f64]) -> DMatrix<f64> {
     let p = jac.pattern().clone();
     let mut v = vec![0.0; p.nnz()];
-    jac.eval(t, x, &[], &mut v);
+    jac.eval(t, x, &[], &mut v).unwrap();
     let mut m = DMatrix::zeros(p.n(), p.n());
     for (k, (i, j)) in p.entries().enumerate() {
         m[(i, j)] = v[k];
@@ -254,7 +254,7 @@ fn a_parameterised_model_traces_and_gets_the_compiled_sparse_jacobian() {
     assert!(tr.rust().contains("pub const P: [f64; 2] = [2.0, 0.5];"));
     let mut j = f.sparse_jacobian(2).unwrap();
     let mut v = vec![0.0; 4];
-    j.eval(0.0, &[3.0, 4.0], &[], &mut v);
+    j.eval(0.0, &[3.0, 4.0], &[], &mut v).unwrap();
     // CSC: (0,0), (1,0), (0,1), (1,1)
     assert_eq!(v, vec![-2.0, 4.0 * 0.5, 0.5, 3.0 * 0.5]);
     // a Dyn model with a parameter block takes the sparse path in a solve

@@ -701,3 +701,78 @@ fn parameter_tangent_at_n_p_directions() {
     // the x₀ columns of the wide tangent are J·0 = 0
     assert_eq!(b[..4], [0.0; 4]);
 }
+
+/// Issue 38 item 10: x' = 710·x from x₀ = 0 keeps x ≡ 0, so the steps chosen for x grow
+/// without bound while S = ∂x/∂x₀ = e^{710t} (e¹⁰⁶⁵ at t = 1.5 overflows). With S outside
+/// the error control (the default) RK45 returned Ok with S = 4.6·10³⁷ and implicit Euler
+/// Ok with 4.5·10⁻⁸ (BDF 4·10⁻⁶, Rodas5P 2.8, exponential Euler 2.8·10¹⁹¹). Now every
+/// adaptive method watches S's own error estimate and refuses with the typed error; with
+/// `error_control(true)` the steps follow S until it overflows, a non-finite error.
+#[test]
+fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
+    use reckon::methods::ExponentialEuler;
+    let f = model!(|_, x: [S; 1]| vector![710.0 * x[0]]);
+    let p = Problem::new(&f, vector![0.0], (0.0, 1.5));
+    let o = Options::default();
+    let off = SensitivityOptions::default();
+    let on = SensitivityOptions::default().error_control(true);
+    fn check(name: &str, r: reckon::Result<Sensitivities<nalgebra::Const<1>>>, want: fn(&Error) -> bool) {
+        match r {
+            Ok(s) => panic!("{name}: Ok with S = {:e}", s.last_s()[(0, 0)]),
+            Err(e) => assert!(want(&e), "{name}: {e}"),
+        }
+    }
+    let unresolved = |e: &Error| matches!(e, Error::SensitivityUnresolved { ratio, .. } if *ratio > 0.1);
+    check("rk45", sensitivity::solve(&p, Dopri5::default(), &o, &off), unresolved);
+    check(
+        "implicit euler",
+        sensitivity::solve(&p, ImplicitEuler::default(), &o, &off),
+        unresolved,
+    );
+    check("bdf", sensitivity::solve(&p, Bdf::default(), &o, &off), unresolved);
+    check(
+        "rodas5p",
+        sensitivity::solve(&p, Rodas5P::default(), &o, &off),
+        unresolved,
+    );
+    check("auto", sensitivity::solve(&p, Auto::default(), &o, &off), unresolved);
+    // exponential Euler is exact on a linear model: its S overflows, a non-finite state
+    // (its φ functions no longer round e^{631} to 1 when the forcing is large)
+    let overflow = |e: &Error| matches!(e, Error::NonFinite { .. } | Error::StepSizeUnderflow { .. });
+    check(
+        "exponential euler",
+        sensitivity::solve(&p, ExponentialEuler::default(), &o, &off),
+        overflow,
+    );
+    // S in the error control: S is followed until it overflows
+    let stops = |e: &Error| {
+        matches!(
+            e,
+            Error::NonFinite { .. } | Error::MaxSteps { .. } | Error::StepSizeUnderflow { .. }
+        )
+    };
+    check(
+        "rk45, S controlled",
+        sensitivity::solve(&p, Dopri5::default(), &o, &on),
+        stops,
+    );
+    check(
+        "rodas5p, S controlled",
+        sensitivity::solve(&p, Rodas5P::default(), &o, &on),
+        stops,
+    );
+    // a span the steps can resolve: S = e^{710·0.01} to the tolerance, with error control
+    let q = Problem::new(&f, vector![0.0], (0.0, 0.01));
+    let s = sensitivity::solve(&q, Dopri5::default(), &Options::default().rtol(1e-8), &on).unwrap();
+    let want = (7.1f64).exp();
+    assert!(
+        (s.last_s()[(0, 0)] / want - 1.0).abs() < 1e-6,
+        "{:e} vs {want:e}",
+        s.last_s()[(0, 0)]
+    );
+    // and without it: S rides on steps chosen for x ≡ 0, refused as well
+    assert!(matches!(
+        sensitivity::solve(&q, Dopri5::default(), &Options::default().rtol(1e-8), &off),
+        Err(Error::SensitivityUnresolved { .. })
+    ));
+}

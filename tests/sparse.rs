@@ -56,7 +56,7 @@ proptest! {
         prop_assert_eq!(lu.factor(&v), Ok(true));
         let b = DVector::from_fn(n, |i, _| (i as f64 * 0.7).sin() + 0.5);
         let mut x = b.clone();
-        lu.solve_in_place(x.as_mut_slice());
+        lu.solve_in_place(x.as_mut_slice()).unwrap();
         let y = a.clone().lu().solve(&b).unwrap();
         let err = (&x - &y).amax() / y.amax();
         prop_assert!(err < 1e-12, "n {n}: relative difference {err:e}");
@@ -64,7 +64,7 @@ proptest! {
         let v2: Vec<f64> = v.iter().map(|x| x * 1.5).collect();
         prop_assert_eq!(lu.factor(&v2), Ok(true));
         let mut x2 = b.clone();
-        lu.solve_in_place(x2.as_mut_slice());
+        lu.solve_in_place(x2.as_mut_slice()).unwrap();
         let err2 = (&x2 * 1.5 - &y).amax() / y.amax();
         prop_assert!(err2 < 1e-12, "refactor: {err2:e}");
     }
@@ -271,12 +271,13 @@ fn traced_model_takes_the_sparse_path() {
     assert_eq!(j.pattern(), &bruss::pattern(N));
     let y = brusselator_y0(N).map(|v| v * 0.9 + 0.05);
     let mut v = vec![0.0; j.pattern().nnz()];
-    j.eval(0.0, y.as_slice(), &[], &mut v);
+    j.eval(0.0, y.as_slice(), &[], &mut v).unwrap();
     let mut w = vec![0.0; v.len()];
     Bruss::new(N, Jac::Hand)
         .sparse_jacobian(2 * N)
         .unwrap()
-        .eval(0.0, y.as_slice(), &[], &mut w);
+        .eval(0.0, y.as_slice(), &[], &mut w)
+        .unwrap();
     let worst = v.iter().zip(&w).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(worst <= 1e-14 * 2.0e4, "compiled vs hand {worst:e}");
     // a spy on the dense Jacobian: the Auto run never calls it
@@ -371,7 +372,7 @@ fn colouring_of_bruss_and_exact_values() {
     let mut jac = Coloured::new(bruss::pattern(n), g);
     let y = brusselator_y0(n).map(|v| v * 0.9 + 0.05);
     let mut values = vec![0.0; jac.pattern().nnz()];
-    jac.eval(0.0, y.as_slice(), &[], &mut values);
+    jac.eval(0.0, y.as_slice(), &[], &mut values).unwrap();
     let mut dense = DMatrix::zeros(2 * n, 2 * n);
     brusselator(n).jacobian(0.0, &y, &[], &mut dense);
     let scale = dense.amax();
@@ -581,6 +582,69 @@ fn wrong_lengths_and_indices_are_typed_errors() {
     // still usable after the refusals: [[2, 0], [1, 4]]·(1, 1) = (2, 5)
     assert_eq!(lu.factor(&[2.0, 1.0, 4.0]), Ok(true));
     let mut b = [2.0, 5.0];
-    lu.solve_in_place(&mut b);
+    lu.solve_in_place(&mut b).unwrap();
     assert_eq!(b, [1.0, 1.0]);
+}
+
+/// Issue 38 item 10: the public sparse and dense linear-algebra entry points refuse a
+/// right-hand side, a value buffer or an index that does not fit with a typed error,
+/// never a panic, and stay usable after it.
+#[test]
+fn public_solves_and_evaluators_refuse_bad_lengths_with_typed_errors() {
+    use reckon::linalg::{DynLu, Lu};
+    let invalid = |e: &Error, what: &str| matches!(e, Error::InvalidInput { what: w, .. } if *w == what);
+    // SparseLu: before a factorisation, then too short and too long
+    let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]).unwrap();
+    let mut lu = SparseLu::new(&p).unwrap();
+    let mut b = [2.0, 5.0];
+    let e = lu.solve_in_place(&mut b).unwrap_err();
+    assert!(invalid(&e, "factorisation"), "{e}");
+    assert_eq!(b, [2.0, 5.0]);
+    assert_eq!(lu.factor(&[2.0, 1.0, 4.0]), Ok(true));
+    for bad in [&mut [][..], &mut [1.0][..], &mut [1.0, 2.0, 3.0][..]] {
+        let before = bad.to_vec();
+        let e = lu.solve_in_place(bad).unwrap_err();
+        assert!(invalid(&e, "rhs"), "{e}");
+        assert!(
+            e.to_string()
+                .contains(&format!("{} entries for a 2 × 2 matrix", before.len())),
+            "{e}"
+        );
+        assert_eq!(bad, &before[..]);
+    }
+    lu.solve_in_place(&mut b).unwrap();
+    assert_eq!(b, [1.0, 1.0]);
+    // the dense LU of dynamic size
+    let d = DynLu::factor(&DMatrix::from_row_slice(2, 2, &[2.0, 0.0, 1.0, 4.0])).unwrap();
+    let e = d.solve_in_place(&mut DVector::from_vec(vec![1.0; 3])).unwrap_err();
+    assert!(invalid(&e, "rhs"), "{e}");
+    let mut x = DVector::from_vec(vec![2.0, 5.0]);
+    d.solve_in_place(&mut x).unwrap();
+    assert_eq!(x.as_slice(), &[1.0, 1.0]);
+    assert!(DynLu::factor(&DMatrix::zeros(2, 3)).is_none());
+    // patterns: indices outside the matrix
+    assert_eq!(p.position(2, 0), None);
+    assert_eq!(p.position(0, 2), None);
+    assert_eq!(p.position(usize::MAX, usize::MAX), None);
+    assert!(invalid(&Pattern::dense(usize::MAX).unwrap_err(), "pattern"));
+    assert!(invalid(&Pattern::from_entries(2, &[(0, 7)]).unwrap_err(), "pattern"));
+    // evaluators: a value buffer that is not nnz long
+    let g = |_t: f64, x: &DVector<DualDVec64>, _u: &[f64]| DVector::from_fn(2, |i, _| x[i].clone() * x[1 - i].clone());
+    let mut coloured = Coloured::new(Pattern::dense(2).unwrap(), g);
+    let e = coloured.eval(0.0, &[1.0, 2.0], &[], &mut [0.0; 3]).unwrap_err();
+    assert!(invalid(&e, "values"), "{e}");
+    let mut v = [0.0; 4];
+    coloured.eval(0.0, &[1.0, 2.0], &[], &mut v).unwrap();
+    assert_eq!(v, [2.0, 2.0, 1.0, 1.0]);
+    let f = reckon::model!(|_, x: [S; 2]| nalgebra::vector![x[0] * x[1], x[1].sin()]);
+    let mut compiled = reckon::symbolic::trace(&f, 2).unwrap().compile_jacobian();
+    for mut c in [compiled.clone(), compiled.clone().interpreted()] {
+        let e = c.eval(0.0, &[1.0, 2.0], &[], &mut [0.0; 9]).unwrap_err();
+        assert!(invalid(&e, "values"), "{e}");
+        let e = c.eval_dense(0.0, &[1.0, 2.0], &[], &mut [0.0; 3]).unwrap_err();
+        assert!(invalid(&e, "jac"), "{e}");
+    }
+    let mut dense = [0.0; 4];
+    compiled.eval_dense(0.0, &[1.0, 2.0], &[], &mut dense).unwrap();
+    assert_eq!(dense, [2.0, 0.0, 1.0, 2.0f64.cos()]);
 }

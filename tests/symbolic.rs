@@ -39,20 +39,20 @@ where
         let mut jd = OMatrix::<f64, nalgebra::Const<N>, nalgebra::Const<N>>::zeros();
         f.jacobian(t, &x, &u, &mut jd);
         let mut js = vec![f64::NAN; N * N];
-        compiled.eval_dense(t, x.as_slice(), &u, &mut js);
+        compiled.eval_dense(t, x.as_slice(), &u, &mut js).unwrap();
         assert!(
             close(&js, jd.as_slice(), 1e-14),
             "{name} at x = {x:?}, u = {u:?}:\nsymbolic {js:?}\nnum-dual {jd}"
         );
         // native code and the interpreter agree bit for bit
         let mut ji = vec![f64::NAN; N * N];
-        interpreted.eval_dense(t, x.as_slice(), &u, &mut ji);
+        interpreted.eval_dense(t, x.as_slice(), &u, &mut ji).unwrap();
         assert_eq!(bits(&js), bits(&ji), "{name}: native and interpreted differ");
         // and through the sparse interface
         let mut v = vec![0.0; compiled.pattern().nnz()];
-        compiled.eval(t, x.as_slice(), &u, &mut v);
+        compiled.eval(t, x.as_slice(), &u, &mut v).unwrap();
         let mut vi = vec![0.0; v.len()];
-        interpreted.eval(t, x.as_slice(), &u, &mut vi);
+        interpreted.eval(t, x.as_slice(), &u, &mut vi).unwrap();
         assert_eq!(bits(&v), bits(&vi), "{name}: native and interpreted CSC values differ");
         for ((i, j), val) in compiled.pattern().entries().zip(&v) {
             assert_eq!(
@@ -93,14 +93,15 @@ fn brusselator_matches_num_dual_and_is_pentadiagonal() {
     let mut jd = DMatrix::zeros(2 * n, 2 * n);
     f.jacobian(0.0, &x, &[], &mut jd);
     let mut js = vec![0.0; 4 * n * n];
-    compiled.eval_dense(0.0, x.as_slice(), &[], &mut js);
+    compiled.eval_dense(0.0, x.as_slice(), &[], &mut js).unwrap();
     assert!(close(&js, jd.as_slice(), 1e-14));
     // 100 states: native code writes the CSC values, which are scattered into the matrix
     let mut ji = vec![0.0; 4 * n * n];
     compiled
         .clone()
         .interpreted()
-        .eval_dense(0.0, x.as_slice(), &[], &mut ji);
+        .eval_dense(0.0, x.as_slice(), &[], &mut ji)
+        .unwrap();
     assert_eq!(bits(&js), bits(&ji));
     // u_i couples to u_{i−1}, u_i, v_i, u_{i+1}; v_i to v_{i−1}, u_i, v_i, v_{i+1}
     let mut e = Vec::new();
@@ -263,7 +264,7 @@ fn rust_source_is_the_checked_in_file_and_evaluates_to_the_same_matrix() {
     let mut jac = [0.0; 9];
     generated::jacobian(0.0, &x, &u, &mut jac);
     let mut want = [f64::NAN; 9];
-    tr.compile_jacobian().eval_dense(0.0, &x, &u, &mut want);
+    tr.compile_jacobian().eval_dense(0.0, &x, &u, &mut want).unwrap();
     assert_eq!(jac, want);
     let mut dx = [0.0; 3];
     generated::rhs(0.0, &x, &u, &mut dx);
@@ -425,9 +426,9 @@ proptest! {
         let tr = symbolic::trace(&f, 3).unwrap();
         let mut js = vec![0.0; 9];
         let mut c = tr.compile_jacobian();
-        c.eval_dense(0.0, &x, &[], &mut js);
+        c.eval_dense(0.0, &x, &[], &mut js).unwrap();
         let mut ji = vec![0.0; 9];
-        c.interpreted().eval_dense(0.0, &x, &[], &mut ji);
+        c.interpreted().eval_dense(0.0, &x, &[], &mut ji).unwrap();
         prop_assert_eq!(bits(&js), bits(&ji), "native and interpreted differ");
         // Relative to the row's largest entry: an entry that is zero by cancellation (the
         // derivative of `atan2(c/x₂, x₀/x₂)` in x₂ is 0) is computed from chain-rule terms
@@ -500,4 +501,135 @@ fn a_folded_non_finite_constant_is_refused() {
         "{}",
         tr.text()
     );
+}
+
+/// What the traced Jacobian and num-dual's give at a special point (issue 38 item 10).
+#[derive(Debug, Clone, Copy)]
+enum Convention {
+    /// Both give this value.
+    Both(f64),
+    /// The derivative is infinite or undefined: both give a non-finite number (±∞ or NaN;
+    /// not always the same one), which every solve refuses as `NonFinite { Jacobian }`.
+    NonFinite,
+    /// The body's own value is NaN here (`0/0`, `0·∞`): the trace keeps its algebraic
+    /// simplification (`a/a = 1`, `0·a = 0`), num-dual computes NaN. No solve gets to the
+    /// Jacobian: `f` is NaN first.
+    ValueIsNan { traced: f64 },
+    /// num-dual's formula is not finite where the derivative is: the traced value is the
+    /// true one (num-dual's arithmetic on the user's body is num-dual's own).
+    NumDualNan { traced: f64 },
+}
+
+/// One special point of a one-state body, checked against its convention: the traced
+/// Jacobian (native and interpreted, which agree bit for bit), num-dual's, and `f` itself.
+fn special_point(name: &str, f: &impl System<nalgebra::Const<1>>, x: f64, c: Convention) {
+    let tr = symbolic::trace(f, 1).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let mut compiled = tr.compile_jacobian();
+    let (mut js, mut ji) = ([f64::NAN; 1], [f64::NAN; 1]);
+    compiled.eval_dense(0.0, &[x], &[], &mut js).unwrap();
+    compiled
+        .clone()
+        .interpreted()
+        .eval_dense(0.0, &[x], &[], &mut ji)
+        .unwrap();
+    assert_eq!(
+        js[0].to_bits(),
+        ji[0].to_bits(),
+        "{name}: native {} vs interpreted {}",
+        js[0],
+        ji[0]
+    );
+    let mut jd = nalgebra::Matrix1::zeros();
+    f.jacobian(0.0, &vector![x], &[], &mut jd);
+    let mut fx = vector![0.0];
+    f.rhs(0.0, &vector![x], &[], &mut fx);
+    let (traced, dual) = (js[0], jd[(0, 0)]);
+    let ok = match c {
+        Convention::Both(v) => traced == v && dual == v,
+        Convention::NonFinite => !traced.is_finite() && !dual.is_finite(),
+        Convention::ValueIsNan { traced: t } => fx[0].is_nan() && traced == t && dual.is_nan(),
+        Convention::NumDualNan { traced: t } => fx[0].is_finite() && traced == t && dual.is_nan(),
+    };
+    assert!(
+        ok,
+        "{name} at x = {x:e}: traced {traced:e}, num-dual {dual:e}, f = {:e}; expected {c:?}",
+        fx[0]
+    );
+}
+
+/// Issue 38 item 10: the traced Jacobian and num-dual's at kinks and special points, one
+/// documented convention each (guide §1, "Special points"): equal values where the
+/// derivative is finite (`|x|` at ±0 by the sign bit, as num-dual), non-finite on both
+/// sides where it is infinite or undefined, and the two documented cases where they
+/// cannot agree because num-dual's own formula breaks down.
+#[test]
+fn special_points_follow_one_convention_in_both_jacobians() {
+    use Convention::*;
+    let abs = model!(|_, x: [S; 1]| vector![x[0].abs()]);
+    special_point("|x|", &abs, 0.0, Both(1.0));
+    special_point("|x|", &abs, -0.0, Both(-1.0));
+    special_point("|x|", &abs, -2.5, Both(-1.0));
+    special_point("|x|", &abs, 2.5, Both(1.0));
+    let neg_abs = model!(|_, x: [S; 1]| vector![(-x[0]).abs()]);
+    special_point("|−x|", &neg_abs, 0.0, Both(1.0));
+    special_point("|−x|", &neg_abs, -0.0, Both(-1.0));
+    let sgn = model!(|_, x: [S; 1]| vector![x[0].signum() * 3.0]);
+    special_point("3·signum(x)", &sgn, 0.0, Both(0.0));
+    special_point("3·signum(x)", &sgn, -0.0, Both(0.0));
+    let sqrt = model!(|_, x: [S; 1]| vector![x[0].sqrt()]);
+    special_point("√x", &sqrt, 0.0, NonFinite);
+    special_point("√x", &sqrt, 4.0, Both(0.25));
+    let cbrt = model!(|_, x: [S; 1]| vector![x[0].cbrt()]);
+    special_point("∛x", &cbrt, 0.0, NonFinite);
+    let half = model!(|_, x: [S; 1]| vector![x[0].powf(0.5)]);
+    special_point("x^0.5", &half, 0.0, NonFinite);
+    let recip = model!(|_, x: [S; 1]| vector![x[0].recip()]);
+    special_point("1/x", &recip, 0.0, NonFinite);
+    let inv2 = model!(|_, x: [S; 1]| vector![x[0].powi(-2)]);
+    special_point("x⁻²", &inv2, 0.0, NonFinite);
+    let ln = model!(|_, x: [S; 1]| vector![x[0].ln()]);
+    special_point("ln x", &ln, 0.0, NonFinite);
+    let asin = model!(|_, x: [S; 1]| vector![x[0].asin()]);
+    special_point("asin x", &asin, 1.0, NonFinite);
+    let acosh = model!(|_, x: [S; 1]| vector![x[0].acosh()]);
+    special_point("acosh x", &acosh, 1.0, NonFinite);
+    let exp = model!(|_, x: [S; 1]| vector![x[0].exp()]);
+    special_point("eˣ", &exp, 710.0, NonFinite);
+    let atan2 = model!(|_, x: [S; 1]| vector![x[0].atan2(x[0] * 2.0)]);
+    special_point("atan2(x, 2x)", &atan2, 0.0, NonFinite);
+    let sq = model!(|_, x: [S; 1]| vector![x[0] * x[0]]);
+    special_point("x·x", &sq, 0.0, Both(0.0));
+    let cube = model!(|_, x: [S; 1]| vector![x[0].powi(3)]);
+    special_point("x³", &cube, 0.0, Both(0.0));
+    let cubef = model!(|_, x: [S; 1]| vector![x[0].powf(3.0)]);
+    special_point("x^3.0", &cubef, 0.0, Both(0.0));
+    let ratio = model!(|_, x: [S; 1]| vector![x[0] / x[0]]);
+    special_point("x/x", &ratio, 1.5, Both(0.0));
+    special_point("x/x", &ratio, 0.0, ValueIsNan { traced: 0.0 });
+    let zero_ln = model!(|_, x: [S; 1]| vector![0.0 * x[0].ln()]);
+    special_point("0·ln x", &zero_ln, 0.0, ValueIsNan { traced: 0.0 });
+    special_point("0·ln x", &zero_ln, 2.0, Both(0.0));
+    // num-dual's tanh is sinh/cosh: its quotient rule takes cosh² − sinh², which is
+    // ∞ − ∞ once cosh² overflows (|x| > 355); the traced 1/cosh² is 0, the true sech²
+    let tanh = model!(|_, x: [S; 1]| vector![x[0].tanh()]);
+    special_point("tanh x", &tanh, 400.0, NumDualNan { traced: 0.0 });
+    special_point("tanh x", &tanh, -400.0, NumDualNan { traced: 0.0 });
+    // below that both are within 2e-16 of sech² (num-dual's difference cancels)
+    let (mut jd, mut js) = (nalgebra::Matrix1::zeros(), [0.0]);
+    tanh.jacobian(0.0, &vector![20.0], &[], &mut jd);
+    symbolic::trace(&tanh, 1)
+        .unwrap()
+        .compile_jacobian()
+        .eval_dense(0.0, &[20.0], &[], &mut js)
+        .unwrap();
+    let sech2 = 1.0 / 20f64.cosh().powi(2);
+    assert!(
+        (js[0] - sech2).abs() <= 1e-30 && (jd[(0, 0)] - sech2).abs() <= 2e-16,
+        "{js:?} {jd}"
+    );
+    // num-dual's powf is a^(p−3)·a³ (value) and p·a^(p−3)·a² (derivative): 0·∞ at a = 0 for
+    // p < 3, NaN where x^1.5 and its derivative are 0
+    let p15 = model!(|_, x: [S; 1]| vector![x[0].powf(1.5)]);
+    special_point("x^1.5", &p15, 0.0, NumDualNan { traced: 0.0 });
+    special_point("x^1.5", &p15, 4.0, Both(3.0));
 }

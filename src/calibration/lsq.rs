@@ -1,6 +1,7 @@
 //! General nonlinear least squares: any model parameters from a logged trajectory against
-//! measured poses, by argmin's Gauss–Newton with a line search, with the exact residual
-//! Jacobian from the forward sensitivities ([`crate::sensitivity`]).
+//! measured poses, by Levenberg–Marquardt (Gauss–Newton steps, damped when they do not
+//! decrease the cost), with the exact residual Jacobian from the forward sensitivities
+//! ([`crate::sensitivity`]).
 //!
 //! Minimises `½ Σ_k Σ_{c ∈ C} ((x_c(t_k; p) − y_{k,c}) / σ_c)²` over `p`, with `x(t; p)` the
 //! model integrated from `x₀` under the logged inputs, `y_k` the measured poses at `t_k`,
@@ -12,6 +13,26 @@
 //! Before it starts and at the optimum the column-scaled `J` is checked by its singular
 //! values: a parameter the data cannot determine (a condition number above
 //! [`LsqOptions::max_condition`]) is [`Error::Unidentifiable`], not a number.
+//!
+//! **Steps.** From `p`, the step `δ` solves `(JᵀJ + λ·diag(JᵀJ))·δ = −Jᵀr` (Marquardt
+//! 1963; `λ` updated by the gain ratio as in Nielsen 1999, starting at 10⁻³). A step that
+//! lowers the cost `½‖r‖²` is taken; one that does not (or whose solve fails) is retried
+//! with a larger `λ`, a shorter step closer to steepest descent. The fit has converged
+//! when the Gauss–Newton step from `p` moves it by less than [`LsqOptions::tol`] standard
+//! deviations (`δᵀJᵀJδ ≤ tol²`: the weighted residuals make `JᵀJ` the information matrix
+//! at the stated σ); this holds at a noise floor too, where the solver's own error stops
+//! every step from lowering the cost. That last small step is taken too when it lowers
+//! the cost. It is [`Error::FitFailed`] after
+//! [`LsqOptions::max_iters`] steps without converging, and when no step from a point
+//! lowers the cost although its Gauss–Newton step is not small: the start is returned
+//! only when it is the optimum, never because no step was found.
+//!
+//! (reckon used argmin's `GaussNewtonLS` before. Its line search measures the cost as
+//! `‖r‖` but the slope as `(Jᵀr)ᵀδ`, the slope of `½‖r‖²`: the Armijo test then asks a
+//! decrease `‖r‖` times too large, no step length passes once `‖r‖ > 10⁴` (1/c), the
+//! backtracking ends at step length 0, and the fit reported the starting point as
+//! converged, with a covariance. Real logs with a few thousand poses reach `‖r‖ > 10⁴`
+//! from a nominal geometry.)
 
 use crate::controls::Controls;
 use crate::error::{Error, Result};
@@ -19,9 +40,6 @@ use crate::options::{Options, Save};
 use crate::problem::Problem;
 use crate::sensitivity::{self, Augment, SensitivityOptions, Wrt};
 use crate::system::DualSystem;
-use argmin::core::{Executor, Jacobian, Operator, State};
-use argmin::solver::gaussnewton::GaussNewtonLS;
-use argmin::solver::linesearch::{BacktrackingLineSearch, condition::ArmijoCondition};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, OVector, U1};
 
@@ -43,9 +61,13 @@ pub struct Observations {
 /// Options of [`fit`].
 #[derive(Debug, Clone)]
 pub struct LsqOptions {
-    /// Gauss–Newton iterations at most (default 50).
+    /// Steps at most (default 50): accepted steps, and rejected trials at most 10 times
+    /// as many.
     pub max_iters: u64,
-    /// Stop when the cost changes by less than this relative amount (default 1e-12).
+    /// Converged when the Gauss–Newton step moves the parameters by less than this many
+    /// of their standard deviations at the stated σ: `δᵀJᵀJδ ≤ tol²` with
+    /// `δ = −(JᵀJ)⁻¹Jᵀr` (default 1e-3). Further steps would change the estimate by less
+    /// than its uncertainty can tell.
     pub tol: f64,
     /// Largest condition number of the column-scaled residual Jacobian accepted (default 1e8).
     pub max_condition: f64,
@@ -57,7 +79,7 @@ impl Default for LsqOptions {
     fn default() -> Self {
         LsqOptions {
             max_iters: 50,
-            tol: 1e-12,
+            tol: 1e-3,
             max_condition: 1e8,
             sensitivity: SensitivityOptions::default(),
         }
@@ -71,44 +93,13 @@ impl Default for LsqOptions {
 pub struct Fit {
     /// Names, `p̂`, covariance, residuals, `σ̂²`.
     pub estimate: super::Estimate,
-    /// Gauss–Newton iterations.
+    /// Accepted Levenberg–Marquardt steps.
     pub iterations: u64,
     /// Condition number of the column-scaled `J` at `p̂`.
     pub condition: f64,
 }
 
-/// The residual Jacobian as argmin's Jacobian type (a nalgebra matrix behind a newtype:
-/// argmin sees `Vec<f64>` parameters and residuals, never a second nalgebra).
-#[derive(Debug, Clone)]
-pub struct Jac(pub DMatrix<f64>);
-
-impl argmin_math::ArgminTranspose<Jac> for Jac {
-    fn t(self) -> Jac {
-        Jac(self.0.transpose())
-    }
-}
-impl argmin_math::ArgminDot<Jac, Jac> for Jac {
-    fn dot(&self, other: &Jac) -> Jac {
-        Jac(&self.0 * &other.0)
-    }
-}
-impl argmin_math::ArgminDot<Vec<f64>, Vec<f64>> for Jac {
-    fn dot(&self, v: &Vec<f64>) -> Vec<f64> {
-        (&self.0 * DVector::from_column_slice(v)).as_slice().to_vec()
-    }
-}
-impl argmin_math::ArgminInv<Jac> for Jac {
-    fn inv(&self) -> std::result::Result<Jac, argmin_math::Error> {
-        // JᵀJ is symmetric positive definite when the data determine p (checked before)
-        self.0
-            .clone()
-            .cholesky()
-            .map(|c| Jac(c.inverse()))
-            .ok_or_else(|| argmin_math::Error::msg("JᵀJ is not positive definite"))
-    }
-}
-
-/// What the Gauss–Newton iteration sees.
+/// What the iteration sees: the weighted residuals and their Jacobian at `p`.
 struct Residuals<'a, D: Dim, S, B, M>
 where
     DefaultAllocator: Allocator<D>,
@@ -174,63 +165,115 @@ type RJ = (Vec<f64>, DMatrix<f64>);
 /// `p ↦ (r, J)`.
 type Evaluator<'a> = dyn Fn(&[f64]) -> Result<RJ> + 'a;
 
-/// The residuals and their Jacobian at `p` from one sensitivity solve (`eval`), the last
-/// pair kept: Gauss–Newton asks for both at the same point, and the fit checks the start
-/// and the optimum again. The first solve error is kept too (argmin's errors are strings).
+/// The residuals and their Jacobian at `p` from one sensitivity solve, the last pair kept:
+/// the fit checks the start and the optimum again.
 struct Cached<'a> {
     eval: &'a Evaluator<'a>,
-    last: std::cell::RefCell<Option<(Vec<f64>, RJ)>>,
-    failure: std::cell::RefCell<Option<Error>>,
+    last: Option<(Vec<f64>, RJ)>,
 }
 
 impl<'a> Cached<'a> {
     fn new(eval: &'a Evaluator<'a>) -> Self {
-        Cached {
-            eval,
-            last: Default::default(),
-            failure: Default::default(),
-        }
+        Cached { eval, last: None }
     }
 
     /// `(r, J)` at `p`: the kept pair when `p` is the point it was computed at.
-    fn at(&self, p: &[f64]) -> Result<RJ> {
-        if let Some((q, rj)) = self.last.borrow().as_ref()
+    fn at(&mut self, p: &[f64]) -> Result<RJ> {
+        if let Some((q, rj)) = self.last.as_ref()
             && q.as_slice() == p
         {
             return Ok(rj.clone());
         }
         let rj = (self.eval)(p)?;
-        *self.last.borrow_mut() = Some((p.to_vec(), rj.clone()));
+        self.last = Some((p.to_vec(), rj.clone()));
         Ok(rj)
     }
 }
 
-/// What argmin sees: [`Cached`] with its errors kept.
-struct Argmin<'a, 'b>(&'b Cached<'a>);
-
-impl Argmin<'_, '_> {
-    fn at(&self, p: &[f64]) -> std::result::Result<RJ, argmin_math::Error> {
-        self.0.at(p).map_err(|e| {
-            let msg = e.to_string();
-            self.0.failure.borrow_mut().get_or_insert(e);
-            argmin_math::Error::msg(msg)
-        })
-    }
+/// `½‖r‖²`.
+fn half_ss(r: &[f64]) -> f64 {
+    0.5 * r.iter().map(|v| v * v).sum::<f64>()
 }
 
-impl Operator for Argmin<'_, '_> {
-    type Param = Vec<f64>;
-    type Output = Vec<f64>;
-    fn apply(&self, p: &Vec<f64>) -> std::result::Result<Vec<f64>, argmin_math::Error> {
-        Ok(self.at(p)?.0)
-    }
-}
-
-impl Jacobian for Argmin<'_, '_> {
-    type Param = Vec<f64>;
-    type Jacobian = Jac;
-    fn jacobian(&self, p: &Vec<f64>) -> std::result::Result<Jac, argmin_math::Error> {
-        Ok(Jac(self.at(p)?.1))
+/// Levenberg–Marquardt from `p0` (see the module's notes): the optimum and the accepted
+/// steps taken.
+fn levenberg_marquardt(cached: &mut Cached<'_>, p0: &[f64], lsq: &LsqOptions) -> Result<(Vec<f64>, u64)> {
+    let np = p0.len();
+    let mut p = p0.to_vec();
+    let (mut r, mut j) = cached.at(&p)?;
+    let mut cost = half_ss(&r);
+    let (mut lambda, mut nu) = (1e-3, 2.0);
+    let (mut accepted, mut trials) = (0u64, 0u64);
+    let fail = |reason: String| Error::FitFailed {
+        what: "Levenberg-Marquardt (lsq)",
+        reason,
+    };
+    let tol2 = lsq.tol * lsq.tol;
+    loop {
+        let a = j.transpose() * &j;
+        let g = j.transpose() * DVector::from_column_slice(&r);
+        // converged: the Gauss–Newton step δ = −A⁻¹g moves p by under tol standard
+        // deviations at the stated σ (δᵀAδ = gᵀA⁻¹g); that last step is taken too when
+        // it lowers the cost (it only polishes digits: on noise-free data the quadratic
+        // convergence gives the parameters to rounding)
+        let chol = a.clone().cholesky();
+        let gn = chol.as_ref().map(|c| g.dot(&c.solve(&g)));
+        if let (Some(q), Some(c)) = (gn, &chol)
+            && q <= tol2
+        {
+            let d = c.solve(&g);
+            let last: Vec<f64> = p.iter().zip(d.iter()).map(|(a, b)| a - b).collect();
+            if let Ok((rq, _)) = cached.at(&last)
+                && half_ss(&rq) < cost
+            {
+                return Ok((last, accepted + 1));
+            }
+            return Ok((p, accepted));
+        }
+        trials += 1;
+        if accepted >= lsq.max_iters || trials > 10 * lsq.max_iters.max(1) {
+            return Err(fail(format!(
+                "no convergence after {accepted} steps ({trials} trials): the Gauss-Newton step is still {:e} standard deviations; try a starting point closer to the optimum",
+                gn.unwrap_or(f64::NAN).sqrt()
+            )));
+        }
+        let mut damped = a.clone();
+        for i in 0..np {
+            damped[(i, i)] += lambda * a[(i, i)].max(f64::MIN_POSITIVE);
+        }
+        // a step that cannot be solved for, or whose model cannot be integrated, or that
+        // does not lower the cost, is retried shorter (a larger λ)
+        let step = damped.cholesky().map(|c| -c.solve(&g));
+        let trial = step.as_ref().and_then(|d| {
+            let q: Vec<f64> = p.iter().zip(d.iter()).map(|(a, b)| a + b).collect();
+            let (rq, jq) = cached.at(&q).ok()?;
+            let cq = half_ss(&rq);
+            cq.is_finite().then_some((q, rq, jq, cq))
+        });
+        match (trial, &step) {
+            (Some((q, rq, jq, cq)), Some(d)) if cq < cost => {
+                // gain ratio: actual / predicted decrease, predicted ½δᵀ(λ·diag(A)·δ − g)
+                let mut pred = 0.0;
+                for i in 0..np {
+                    pred += d[i] * (lambda * a[(i, i)] * d[i] - g[i]);
+                }
+                let rho = (cost - cq) / (0.5 * pred).max(f64::MIN_POSITIVE);
+                (p, r, j, cost) = (q, rq, jq, cq);
+                accepted += 1;
+                lambda *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                nu = 2.0;
+            }
+            _ => {
+                lambda *= nu;
+                nu *= 2.0;
+                if lambda >= 1e16 {
+                    return Err(fail(format!(
+                        "no step from p = {p:?} lowers the cost ½‖r‖² = {cost:e}, although its Gauss-Newton step is {:e} standard deviations: the model cannot be integrated near there, or the residuals are not smooth in the parameters",
+                        gn.unwrap_or(f64::NAN).sqrt()
+                    )));
+                }
+            }
+        }
     }
 }
 
@@ -274,8 +317,10 @@ fn identifiability(j: &DMatrix<f64>) -> (f64, usize) {
 /// `method` integrates with sensitivities ([`sensitivity::solve`]).
 ///
 /// Errors: [`Error::Unidentifiable`] when the data cannot determine a parameter (named),
-/// [`Error::InvalidInput`] for malformed observations, the solve's errors as they are, and
-/// [`Error::FitFailed`] when Gauss–Newton fails.
+/// [`Error::InvalidInput`] for malformed observations, the solve's errors as they are (at
+/// the start and the optimum; a trial step whose solve fails is only retried shorter),
+/// and [`Error::FitFailed`] when the iteration does not converge or finds no step that
+/// lowers the cost (see the module's notes).
 ///
 /// ```
 /// use reckon::calibration::lsq::{self, LsqOptions, Observations};
@@ -375,36 +420,13 @@ where
     let names: Vec<String> = (0..p0.len()).map(|i| format!("p[{i}]")).collect();
     // identifiable at the start?
     let eval = |p: &[f64]| res.eval(p);
-    let cached = Cached::new(&eval);
+    let mut cached = Cached::new(&eval);
     let (_, j0) = cached.at(p0)?;
     let (cond, q) = identifiability(&j0);
     if cond.is_nan() || cond > lsq.max_condition {
         return Err(unidentifiable(&names[q], cond));
     }
-    let armijo = ArmijoCondition::new(1e-4).map_err(|e| Error::invalid("lsq", e.to_string()))?;
-    let ls = BacktrackingLineSearch::new(armijo);
-    let gn = GaussNewtonLS::new(ls)
-        .with_tolerance(lsq.tol.max(f64::MIN_POSITIVE))
-        .map_err(|e| Error::invalid("lsq", e.to_string()))?;
-    let out = Executor::new(Argmin(&cached), gn)
-        .configure(|c| c.param(p0.to_vec()).max_iters(lsq.max_iters))
-        .run();
-    let out = match out {
-        Ok(o) => o,
-        Err(e) => {
-            return Err(cached.failure.take().unwrap_or(Error::FitFailed {
-                what: "Gauss-Newton (lsq)",
-                reason: e.to_string(),
-            }));
-        }
-    };
-    let iterations = out.state.get_iter();
-    let p = out
-        .state
-        .get_best_param()
-        .or(out.state.get_param())
-        .cloned()
-        .unwrap_or_else(|| p0.to_vec());
+    let (p, iterations) = levenberg_marquardt(&mut cached, p0, lsq)?;
     let (r, j) = cached.at(&p)?;
     let (cond, q) = identifiability(&j);
     if cond.is_nan() || cond > lsq.max_condition {

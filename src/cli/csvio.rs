@@ -79,10 +79,12 @@ fn trim_point_zero(s: &str) -> &str {
 }
 
 /// Reads a numeric CSV one row at a time: the header must name every requested column
-/// (the first is time, strictly increasing); every row must have as many fields as the
-/// header; every requested value must be a finite number.
+/// (the first is time, strictly increasing, unless [`untimed`](RowReader::untimed));
+/// every row must have as many fields as the header; every requested value must be a
+/// finite number.
 pub struct RowReader<R: Read> {
     file: String,
+    timed: bool,
     rdr: csv::Reader<R>,
     columns: Vec<String>,
     index: Vec<usize>,
@@ -142,6 +144,7 @@ impl<R: Read> RowReader<R> {
         }
         Ok(RowReader {
             file: name,
+            timed: true,
             header_len: header.len(),
             rdr,
             columns: columns.iter().map(|c| c.to_string()).collect(),
@@ -151,6 +154,20 @@ impl<R: Read> RowReader<R> {
             line: 1,
             rows: 0,
         })
+    }
+
+    /// Rows without a time column: the first requested column need not increase.
+    ///
+    /// ```
+    /// use reckon::cli::csvio::RowReader;
+    /// let text = "dt,x\n0.5,1\n0.25,2\n";
+    /// let mut r = RowReader::new("d.csv".into(), text.as_bytes(), &["dt", "x"]).unwrap().untimed();
+    /// assert_eq!(r.next_row().unwrap(), Some(&[0.5, 1.0][..]));
+    /// assert_eq!(r.next_row().unwrap(), Some(&[0.25, 2.0][..]));
+    /// ```
+    pub fn untimed(mut self) -> Self {
+        self.timed = false;
+        self
     }
 
     /// The file's name, as used in errors.
@@ -224,7 +241,7 @@ impl<R: Read> RowReader<R> {
                 }
             }
         }
-        if self.rows > 0 && self.values[0] <= prev_t {
+        if self.timed && self.rows > 0 && self.values[0] <= prev_t {
             let t = self.values[0];
             self.values[0] = prev_t;
             return Err(self.error(format!("time does not increase: {} after {}", num(t), num(prev_t))));

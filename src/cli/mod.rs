@@ -73,7 +73,8 @@ pub enum Command {
     Convergence(studies::ConvergenceArgs),
     /// Step-size behaviour, stiffness ratio, stability regions and the Dahlquist threshold.
     Stiffness(studies::StiffnessArgs),
-    /// Error against rhs evaluations and wall time over a tolerance sweep.
+    /// Correct digits (and max-norm error) against rhs evaluations and wall time over a
+    /// tolerance sweep.
     WorkPrecision(studies::WorkPrecisionArgs),
     /// A model's right-hand side and Jacobian, traced from its body and printed
     /// symbolically (text, LaTeX, MathML, Rust or JSON with the sparsity pattern).

@@ -50,6 +50,7 @@ where
         self.adaptive
             && !self.done
             && !self.keep_dense
+            && self.watch.is_none()
             && self.problem.events.is_empty()
             && self.until.is_none()
             && self.stop_idx == self.stops.len()

@@ -90,6 +90,9 @@ where
     stiff_countdown: usize,
     stiffness: Option<Stiffness>,
     switches: Vec<Switch>,
+    /// The largest error estimate of the components outside the error control an
+    /// accepted step may have ([`watch_uncontrolled`](Self::watch_uncontrolled)).
+    watch: Option<f64>,
     done: bool,
 }
 
@@ -123,10 +126,10 @@ where
         }
         let dir = (t_end - t0).signum();
         let (r, _) = x0.shape_generic();
-        let w = Weights {
-            rtol: opts.rtol.expand("rtol", r)?,
-            atol: opts.atol.expand("atol", r)?,
-            controlled: match opts.error_components {
+        let w = Weights::new(
+            opts.rtol.expand("rtol", r)?,
+            opts.atol.expand("atol", r)?,
+            match opts.error_components {
                 None => x0.len(),
                 Some(m) if (1..=x0.len()).contains(&m) => m,
                 Some(m) => {
@@ -136,7 +139,7 @@ where
                     ));
                 }
             },
-        };
+        );
         if (0..x0.len()).any(|i| w.rtol[i] == 0.0 && w.atol[i] == 0.0) {
             return Err(Error::invalid("atol", "rtol and atol are both zero for a component"));
         }
@@ -331,8 +334,20 @@ where
             stiff_countdown: opts.stiffness_check.unwrap_or(0),
             stiffness: None,
             switches: Vec::new(),
+            watch: None,
             done: false,
         })
+    }
+
+    /// Refuse an accepted step whose error estimate over the components outside the
+    /// error control ([`Weights::uncontrolled`], those components the columns of a
+    /// sensitivity matrix with the scales `column_scales`) exceeds `limit` with
+    /// [`Error::SensitivityUnresolved`]: the sensitivities of an augmented solve, which
+    /// are integrated on the steps chosen for `x` alone. Such a run takes the general
+    /// loop (the lean ones do not watch).
+    pub(crate) fn watch_uncontrolled(&mut self, limit: f64, column_scales: Vec<f64>) {
+        self.watch = Some(limit);
+        self.w.set_columns(column_scales);
     }
 
     /// Current time.
@@ -363,6 +378,10 @@ where
     /// The method, as the last step left it.
     pub(crate) fn method(&self) -> &M {
         &self.method
+    }
+    /// Whether the steps are adaptive (error-controlled).
+    pub(crate) fn is_adaptive(&self) -> bool {
+        self.adaptive
     }
     /// The inputs held now: those the next step uses.
     pub(crate) fn held_inputs(&self) -> &[f64] {
@@ -534,6 +553,9 @@ where
                 return Err(self.underflow(h, failures));
             }
             self.attempts += 1;
+            if self.watch.is_some() {
+                self.w.clear_uncontrolled();
+            }
             let outcome = self
                 .method
                 .step(&mut self.f, self.t, &self.x, h, &mut self.x_new, &self.w, self.adaptive)?;
@@ -560,6 +582,16 @@ where
             {
                 self.reject_by(h, fac);
                 continue;
+            }
+            if let Some(limit) = self.watch
+                && self.adaptive
+                && self.w.uncontrolled() > limit
+            {
+                return Err(Error::SensitivityUnresolved {
+                    t: self.t,
+                    h,
+                    ratio: self.w.uncontrolled(),
+                });
             }
             let (t_new, tau_new) = landing.unwrap_or((self.problem.t0 + (self.tau + h), self.tau + h));
             self.accept(h, err, land, t_new, tau_new)?;

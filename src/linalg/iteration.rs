@@ -185,10 +185,7 @@ where
     /// `v ← M⁻¹·v` with the last LU; `false` (v untouched) when there is none.
     pub fn solve(&mut self, v: &mut OVector<f64, D>) -> bool {
         match self {
-            IterationMatrix::Dense { lu: Some(lu), .. } => {
-                lu.solve_in_place(v);
-                true
-            }
+            IterationMatrix::Dense { lu: Some(lu), .. } => lu.solve_in_place(v).is_ok(),
             IterationMatrix::Dense { lu: None, .. } => false,
             IterationMatrix::Block {
                 j,
@@ -218,10 +215,8 @@ where
                 true
             }
             IterationMatrix::Block { lu: None, .. } => false,
-            IterationMatrix::Sparse(s) if s.lu.is_factored() => {
-                s.lu.solve_in_place(v.as_mut_slice());
-                true
-            }
+            // (a length that is not n is refused, as a missing factorisation is)
+            IterationMatrix::Sparse(s) if s.lu.is_factored() => s.lu.solve_in_place(v.as_mut_slice()).is_ok(),
             IterationMatrix::Sparse(_) => false,
         }
     }

@@ -444,6 +444,12 @@ where
         }
         s.err.copy_from(&s.d);
         let err = s.norm(coef.error[k], &s.err);
+        let n = x.len();
+        if s.controlled < n {
+            // the components outside the error control, watched (the sensitivities)
+            let c = coef.error[k];
+            w.rest_from(|i| c * s.err[i], x.as_slice(), x_new.as_slice());
+        }
         Ok(Outcome::Done { err })
     }
     fn accept(&mut self) {

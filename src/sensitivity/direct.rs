@@ -50,6 +50,17 @@ where
     let mut col = OVector::<f64, D>::zeros_generic(r, U1);
     let mut u = Vec::with_capacity(it.held_inputs().len());
     let mut extra = 0u64;
+    // S's error estimate as implicit Euler's own for x, (I − hJ)⁻¹·½(S₁ − S₀ − h·Ṡ₀),
+    // relative to S's largest magnitude (adaptive runs, S outside the error control): Ṡ₀ =
+    // J·S + [0 | ∂f/∂p] at the step's start, the last step's J(x₁)·S₁ + ∂f/∂p(x₁) when
+    // the inputs held on (no evaluation), else one dual evaluation
+    let watch = it.is_adaptive();
+    let atol = opts.atol.expand("atol", r)?;
+    let scales = super::column_scales(problem.x0.as_slice(), problem.system.params(), sens.wrt);
+    let mut sdot = vec![0.0; n * m];
+    let mut sdot_inputs: Option<Vec<f64>> = None;
+    let mut s0 = vec![0.0; n * m];
+    let mut x_prev = vec![0.0; n];
     loop {
         u.clear();
         u.extend_from_slice(it.held_inputs());
@@ -59,6 +70,12 @@ where
         }
         if it.accepted() > accepted {
             let (t, h, _) = it.last_step();
+            if watch && sdot_inputs.as_deref() != Some(&u[..]) {
+                // z still holds the step's start (x₀, S₀)
+                let x0 = OVector::<f64, D>::from_column_slice_generic(r, U1, &z.as_slice()[..n]);
+                problem.system.tangent(t, &x0, &u, &z.as_slice()[n..], m, &mut sdot);
+                extra += 1;
+            }
             let x1 = it.x();
             // the time implicit Euler evaluated f at
             let t1 = t + h;
@@ -74,7 +91,13 @@ where
             if at_times {
                 dense[0].copy_from(&z);
             }
+            if watch {
+                x_prev.copy_from_slice(&z.as_slice()[..n]);
+            }
             let sz = &mut z.as_mut_slice()[n..];
+            if watch {
+                s0.copy_from_slice(sz);
+            }
             for k in 0..m {
                 let s_col = &mut sz[k * n..(k + 1) * n];
                 col.as_mut_slice().copy_from_slice(s_col);
@@ -84,8 +107,44 @@ where
                         col[i] += h * fp[i];
                     }
                 }
-                lu.solve_in_place(&mut col);
+                lu.solve_in_place(&mut col)?;
                 s_col.copy_from_slice(col.as_slice());
+            }
+            if watch {
+                // relative to S's largest magnitude, with Weights::uncontrolled's floor
+                let big = s0.iter().chain(sz.iter()).fold(0.0f64, |a, v| a.max(v.abs()));
+                let mut sum = 0.0;
+                for (k, scale) in scales.iter().enumerate() {
+                    for i in 0..n {
+                        let j = k * n + i;
+                        col[i] = 0.5 * (sz[j] - s0[j] - h * sdot[j]);
+                    }
+                    lu.solve_in_place(&mut col)?;
+                    for i in 0..n {
+                        let x = x_prev[i].abs().max(x1[i].abs());
+                        let floor = (x + atol[i]) / scale;
+                        sum += (col[i] / (big + floor).max(f64::MIN_POSITIVE)).powi(2);
+                    }
+                }
+                let ratio = (sum / (n * m).max(1) as f64).sqrt();
+                if ratio > super::UNRESOLVED {
+                    return Err(Error::SensitivityUnresolved { t, h, ratio });
+                }
+                // Ṡ₁ = J(x₁)·S₁ + [0 | ∂f/∂p (x₁)], the next step's Ṡ₀ while the inputs hold
+                for k in 0..m {
+                    for i in 0..n {
+                        let mut acc = if k >= x0_cols {
+                            jp[(n + k - x0_cols) * n + i]
+                        } else {
+                            0.0
+                        };
+                        for c in 0..n {
+                            acc += jp[i + c * n] * sz[k * n + c];
+                        }
+                        sdot[k * n + i] = acc;
+                    }
+                }
+                sdot_inputs = Some(u.clone());
             }
             z.rows_mut(0, n).copy_from_slice(x1.as_slice());
             crate::system::finite(z.as_slice(), t1, crate::error::Quantity::State)?;
@@ -124,7 +183,7 @@ pub(super) fn dopri5<D: Dim, S: DualSystem<D>>(
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
 {
-    use tableau::{A, B, C};
+    use tableau::{A, B, C, E};
     // the last stage argument is the step's end (FSAL), so S₁ is the last stage's S
     debug_assert_eq!(A[6][..6], B[..6]);
     let n = problem.x0.len();
@@ -147,12 +206,18 @@ where
     // K₁…K₇ (n × m each, column-major, one after the other), the stage argument's S
     let mut kk: [Vec<f64>; 7] = std::array::from_fn(|_| vec![0.0; nm]);
     let mut sy = vec![0.0; nm];
+    // the sixth stage's S argument (at t + h, as the seventh's: the growth check)
+    let mut sy6 = vec![0.0; nm];
     let mut y = OVector::<f64, D>::zeros_generic(r, U1);
     let mut x0 = problem.x0.clone();
     // what K₇ was evaluated at: the inputs and f(t₁, x₁), to tell FSAL from a fresh k₁
     let mut k7_prev: Option<OVector<f64, D>> = None;
     let (mut u, mut u_prev) = (Vec::new(), Vec::new());
     let mut tangents = 0u64;
+    // adaptive runs without S in the error control watch S's own estimate
+    let watch = it.is_adaptive();
+    let atol = opts.atol.expand("atol", r)?;
+    let scales = super::column_scales(problem.x0.as_slice(), problem.system.params(), sens.wrt);
     loop {
         u.clear();
         u.extend_from_slice(it.held_inputs());
@@ -201,7 +266,33 @@ where
         stage!(3; 0, 1, 2);
         stage!(4; 0, 1, 2, 3);
         stage!(5; 0, 1, 2, 3, 4);
+        if watch {
+            sy6.copy_from_slice(&sy);
+        }
         stage!(6; 0, 2, 3, 4, 5);
+        if watch {
+            // S's embedded error estimate h Σ eᵢKᵢ relative to S's largest magnitude, with
+            // Weights::uncontrolled's floor
+            let big = s0.iter().chain(sy.iter()).fold(0.0f64, |a, v| a.max(v.abs()));
+            let x1 = it.x();
+            let mut sum = 0.0;
+            for q in 0..nm {
+                let mut e = 0.0;
+                for (j, kj) in kk.iter().enumerate() {
+                    e += E[j] * kj[q];
+                }
+                let i = q % n;
+                let floor = (xs[i].abs().max(x1[i].abs()) + atol[i]) / scales[q / n];
+                sum += (h * e / (big + floor).max(f64::MIN_POSITIVE)).powi(2);
+            }
+            // and the step's own error on the growing mode of S (the embedded estimate
+            // misses it far outside the accuracy region)
+            let growth = crate::methods::dopri5::growth_error(h, &kk[6], &kk[5], &sy, &sy6);
+            let ratio = (sum / nm.max(1) as f64).sqrt().max(growth);
+            if ratio > super::UNRESOLVED {
+                return Err(Error::SensitivityUnresolved { t, h, ratio });
+            }
+        }
         if at_times {
             dense[0].copy_from(&z);
         }

@@ -106,7 +106,7 @@ impl Colouring {
 /// let mut jac = Coloured::new(Pattern::from_entries(4, &e).unwrap(), g);
 /// assert_eq!(jac.colouring().count(), 2);
 /// let mut v = vec![0.0; 8];
-/// jac.eval(0.0, &[1.0, 2.0, 3.0, 4.0], &[], &mut v);
+/// jac.eval(0.0, &[1.0, 2.0, 3.0, 4.0], &[], &mut v).unwrap();
 /// // column 0 holds (0,0) = 2·1 and (3,0) = 1; column 1 holds (0,1) = 1 and (1,1) = 2·2
 /// assert_eq!(&v[..4], &[2.0, 1.0, 1.0, 4.0]);
 /// ```
@@ -136,7 +136,7 @@ where
     /// let g = |_t: f64, x: &DVector<DualDVec64>, _u: &[f64]| dvector![x[0].clone() * x[1].clone(), x[1].clone()];
     /// let mut jac = Coloured::detected(g, 0.0, &dvector![1.0, 0.0], &[]);
     /// let mut v = vec![0.0; jac.pattern().nnz()];
-    /// jac.eval(0.0, &[3.0, 2.0], &[], &mut v);
+    /// jac.eval(0.0, &[3.0, 2.0], &[], &mut v).unwrap();
     /// assert_eq!(v, [2.0, 3.0, 1.0]); // ∂f₀/∂x₀ = x₁, ∂f₀/∂x₁ = x₀, ∂f₁/∂x₁ = 1
     /// ```
     pub fn detected(g: G, t: f64, x0: &DVector<f64>, u: &[f64]) -> Self {
@@ -157,7 +157,8 @@ where
     fn pattern(&self) -> &Pattern {
         &self.pattern
     }
-    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) {
+    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) -> crate::Result<()> {
+        super::check_values(values, self.pattern.nnz())?;
         let n = self.pattern.n();
         let c = self.colouring.count();
         let colours = self.colouring.colours();
@@ -169,7 +170,7 @@ where
         if r.len() != n || x.len() != n {
             // the model's length error: NaN, which the caller reports
             values.fill(f64::NAN);
-            return;
+            return Ok(());
         }
         let (cp, ri) = (self.pattern.col_ptr(), self.pattern.row_idx());
         for j in 0..n {
@@ -177,6 +178,7 @@ where
                 values[k] = r[ri[k]].eps.0.as_ref().map_or(0.0, |e| e[colours[j]]);
             }
         }
+        Ok(())
     }
 }
 

@@ -76,7 +76,7 @@ where
             return Err(Error::invalid("linear_solver", "no sparse Jacobian was chosen"));
         };
         self.stats.jacobian_evals += 1;
-        ev.eval(t, x.as_slice(), &self.u, values);
+        ev.eval(t, x.as_slice(), &self.u, values)?;
         if let Some(k) = values.iter().position(|v| !v.is_finite()) {
             let p = ev.pattern();
             let col = p.col_ptr().partition_point(|&c| c <= k) - 1;

@@ -26,9 +26,10 @@ use faer::{Conj, MatMut, Par};
 /// let mut lu = SparseLu::new(&p).unwrap();
 /// assert_eq!(lu.factor(&[4.0, 2.0, 1.0, 3.0]), Ok(true));
 /// let mut b = [5.0, 5.0]; // A·(1, 1)
-/// lu.solve_in_place(&mut b);
+/// lu.solve_in_place(&mut b).unwrap();
 /// assert!((b[0] - 1.0).abs() < 1e-15 && (b[1] - 1.0).abs() < 1e-15);
 /// assert_eq!(lu.factor(&[1.0, 1.0, 1.0, 1.0]), Ok(false)); // singular
+/// assert!(lu.solve_in_place(&mut b).is_err()); // no factorisation to solve with
 /// ```
 pub struct SparseLu {
     col_ptr: Vec<usize>,
@@ -127,8 +128,7 @@ impl SparseLu {
         for (i, p) in probe.iter_mut().enumerate() {
             *p = 1.0 + 0.1 * (i % 7) as f64;
         }
-        self.solve_in_place(&mut probe);
-        let ok = probe.iter().all(|v| v.is_finite());
+        let ok = self.solve_in_place(&mut probe).is_ok() && probe.iter().all(|v| v.is_finite());
         self.probe = probe;
         self.factored = ok;
         Ok(ok)
@@ -144,14 +144,40 @@ impl SparseLu {
         self.factored
     }
 
-    /// `b ← A⁻¹·b` with the last successful factorisation. Panics if there is none or
-    /// `b` has the wrong length (programming errors).
-    pub fn solve_in_place(&mut self, b: &mut [f64]) {
-        assert!(self.factored, "SparseLu::solve_in_place before a successful factor");
+    /// `b ← A⁻¹·b` with the last successful factorisation;
+    /// [`Error::InvalidInput`](crate::Error::InvalidInput) (and `b` untouched) when there
+    /// is none or `b` does not have `n` entries.
+    ///
+    /// ```
+    /// use reckon::sparse::{Pattern, SparseLu};
+    /// let p = Pattern::from_entries(2, &[(0, 0), (1, 1)]).unwrap();
+    /// let mut lu = SparseLu::new(&p).unwrap();
+    /// let mut b = [2.0, 8.0];
+    /// let e = lu.solve_in_place(&mut b).unwrap_err();
+    /// assert_eq!(e.to_string(), "invalid factorisation: solve_in_place before a successful factor");
+    /// lu.factor(&[2.0, 4.0]).unwrap();
+    /// let e = lu.solve_in_place(&mut [1.0, 2.0, 3.0]).unwrap_err();
+    /// assert_eq!(e.to_string(), "invalid rhs: 3 entries for a 2 × 2 matrix");
+    /// lu.solve_in_place(&mut b).unwrap();
+    /// assert_eq!(b, [1.0, 2.0]);
+    /// ```
+    pub fn solve_in_place(&mut self, b: &mut [f64]) -> crate::Result<()> {
+        if !self.factored {
+            return Err(crate::Error::invalid(
+                "factorisation",
+                "solve_in_place before a successful factor",
+            ));
+        }
         let n = self.n();
-        assert_eq!(b.len(), n, "SparseLu::solve_in_place: wrong length");
+        if b.len() != n {
+            return Err(crate::Error::invalid(
+                "rhs",
+                format!("{} entries for a {n} × {n} matrix", b.len()),
+            ));
+        }
         let rhs = MatMut::from_column_major_slice_mut(b, n, 1);
         let lu = LuRef::new_unchecked(&self.symbolic, &self.numeric);
         lu.solve_in_place_with_conj(Conj::No, rhs, Par::Seq, MemStack::new(&mut self.solve_mem));
+        Ok(())
     }
 }

@@ -106,13 +106,34 @@ impl Pattern {
         ok.then_some(Pattern { n, col_ptr, row_idx })
     }
 
-    /// The dense pattern of an `n × n` matrix.
-    pub fn dense(n: usize) -> Self {
-        Pattern {
+    /// The dense pattern of an `n × n` matrix; [`Error::InvalidInput`](crate::Error::InvalidInput)
+    /// when its `n²` row indices cannot be held (`n²` overflows, or the allocation fails).
+    ///
+    /// ```
+    /// use reckon::sparse::Pattern;
+    /// assert_eq!(Pattern::dense(3).unwrap().nnz(), 9);
+    /// let e = Pattern::dense(1 << 40).unwrap_err();
+    /// assert!(e.to_string().starts_with("invalid pattern: a dense 1099511627776 × 1099511627776"), "{e}");
+    /// ```
+    pub fn dense(n: usize) -> crate::Result<Self> {
+        let too_big = || {
+            crate::Error::invalid(
+                "pattern",
+                format!("a dense {n} × {n} pattern has more entries than memory can hold"),
+            )
+        };
+        let nnz = n
+            .checked_mul(n)
+            .filter(|&m| m <= isize::MAX as usize / std::mem::size_of::<usize>())
+            .ok_or_else(too_big)?;
+        let mut row_idx = Vec::new();
+        row_idx.try_reserve_exact(nnz).map_err(|_| too_big())?;
+        row_idx.extend((0..nnz).map(|k| k % n));
+        Ok(Pattern {
             n,
             col_ptr: (0..=n).map(|j| j * n).collect(),
-            row_idx: (0..n * n).map(|k| k % n).collect(),
-        }
+            row_idx,
+        })
     }
 
     /// Matrix size `n`.
@@ -139,8 +160,18 @@ impl Pattern {
     pub fn row_idx(&self) -> &[usize] {
         &self.row_idx
     }
-    /// Index into the value array of entry `(row, col)`, if it is in the pattern.
+    /// Index into the value array of entry `(row, col)`, if it is in the pattern (`None`
+    /// for an index outside the matrix too).
+    ///
+    /// ```
+    /// use reckon::sparse::Pattern;
+    /// let p = Pattern::from_entries(2, &[(0, 0), (1, 1)]).unwrap();
+    /// assert_eq!((p.position(1, 1), p.position(0, 2), p.position(5, 0)), (Some(1), None, None));
+    /// ```
     pub fn position(&self, row: usize, col: usize) -> Option<usize> {
+        if row >= self.n || col >= self.n {
+            return None;
+        }
         let (a, b) = (self.col_ptr[col], self.col_ptr[col + 1]);
         self.row_idx[a..b].binary_search(&row).ok().map(|k| a + k)
     }
@@ -172,7 +203,20 @@ impl Pattern {
 pub trait SparseJacobian {
     /// The pattern the values are written in.
     fn pattern(&self) -> &Pattern;
-    /// `values ← J(t, x, u)` in the order of [`pattern`](Self::pattern)`.row_idx()`
-    /// (`values.len() == nnz`). `x` is the state as a slice.
-    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]);
+    /// `values ← J(t, x, u)` in the order of [`pattern`](Self::pattern)`.row_idx()`. `x`
+    /// is the state as a slice. [`Error::InvalidInput`](crate::Error::InvalidInput) when
+    /// `values` does not hold one value per non-zero (`nnz`); a model that returns the
+    /// wrong number of components gives NaN values (the caller reports them).
+    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) -> crate::Result<()>;
+}
+
+/// The error of a `values` buffer that is not `nnz` long.
+pub(crate) fn check_values(values: &[f64], nnz: usize) -> crate::Result<()> {
+    if values.len() == nnz {
+        return Ok(());
+    }
+    Err(crate::Error::invalid(
+        "values",
+        format!("{} values for a pattern of {nnz} non-zeros", values.len()),
+    ))
 }

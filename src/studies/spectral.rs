@@ -515,7 +515,10 @@ pub fn sparse_spectrum_with(
     }
     let mut inv = |x: &[f64], y: &mut [f64]| {
         y.copy_from_slice(x);
-        lu.solve_in_place(y);
+        // n entries, factored just above; were it refused, NaN stops the iteration
+        if lu.solve_in_place(y).is_err() {
+            y.fill(f64::NAN);
+        }
     };
     let small = dominant_from(n, &mut inv, opts, None, &mut ws.small, "smallest eigenvalue", t)?;
     out.solves = small.products;

@@ -336,7 +336,7 @@ fn sparse_point(
     (t, x, u, h): (f64, &[f64], &[f64], f64),
     opts: &SpectralOptions,
 ) -> Result<StiffnessPoint> {
-    ev.eval(t, x, u, values);
+    ev.eval(t, x, u, values)?;
     let s = sparse_spectrum_with(t, ev.pattern(), values, opts, ws)?;
     Ok(point(t, h, s.spectral_radius, s.ratio))
 }

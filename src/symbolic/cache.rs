@@ -64,8 +64,8 @@
 //! let mut jb = b.sparse_jacobian(70).unwrap();
 //! assert_eq!((b.traces(), b.compiles()), (0, 0)); // the second build reused the first's program
 //! let (x, mut va, mut vb) = (vec![1.0; 70], vec![0.0; 139], vec![0.0; 139]);
-//! ja.eval(0.0, &x, &[], &mut va);
-//! jb.eval(0.0, &x, &[], &mut vb);
+//! ja.eval(0.0, &x, &[], &mut va).unwrap();
+//! jb.eval(0.0, &x, &[], &mut vb).unwrap();
 //! assert_eq!((va[0], vb[0]), (-2.0, -3.0)); // ∂ẋ₀/∂x₀ = −k for each model's own k
 //! assert!(symbolic::cache_stats().trace_hits >= 1);
 //! ```

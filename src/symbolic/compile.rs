@@ -423,12 +423,14 @@ impl Program {
 /// let f = model!(|_, x: [S; 2]| vector![x[1].clone(), -x[0].sin()]);
 /// let mut jac = symbolic::trace(&f, 2).unwrap().compile_jacobian();
 /// let mut v = vec![0.0; jac.pattern().nnz()];
-/// jac.eval(0.0, &[0.5, 0.0], &[], &mut v);
+/// jac.eval(0.0, &[0.5, 0.0], &[], &mut v).unwrap();
 /// // CSC order: (1, 0) = −cos x₀, then (0, 1) = 1
 /// assert_eq!(v, vec![-0.5f64.cos(), 1.0]);
 /// // the interpreter gives the same values, bit for bit
 /// let mut w = vec![0.0; 2];
-/// jac.clone().interpreted().eval(0.0, &[0.5, 0.0], &[], &mut w);
+/// jac.clone().interpreted().eval(0.0, &[0.5, 0.0], &[], &mut w).unwrap();
+/// // a buffer of the wrong length is an error, not a panic
+/// assert!(jac.eval(0.0, &[0.5, 0.0], &[], &mut [0.0; 3]).is_err());
 /// assert_eq!(v, w);
 /// ```
 #[derive(Debug, Clone)]
@@ -530,7 +532,7 @@ impl CompiledJacobian {
         // SAFETY: the code reads `x[i]` for `i < min_x ≤ x.len()` and `u[k]` for
         // `k < min_u ≤ u.len()` (checked above), and writes `out[d]` for the layout's
         // offsets: `d < nnz` for function 0 and `d < n²` for function 1, which the callers
-        // give as `out.len()` (asserted there); it reads the constant slots `s < consts ≤
+        // give as `out.len()` (checked there); it reads the constant slots `s < consts ≤
         // template.len()` of the template it was generated for (the cache hands out code
         // only for programs with the same instructions and slot layout).
         unsafe {
@@ -545,12 +547,19 @@ impl CompiledJacobian {
         true
     }
 
-    /// `jac ← J(t, x, u)` as a dense column-major `n × n` array (`jac[i + n·j] = ∂fᵢ/∂xⱼ`).
-    pub fn eval_dense(&mut self, t: f64, x: &[f64], u: &[f64], jac: &mut [f64]) {
+    /// `jac ← J(t, x, u)` as a dense column-major `n × n` array (`jac[i + n·j] = ∂fᵢ/∂xⱼ`);
+    /// [`Error::InvalidInput`](crate::Error::InvalidInput) when `jac` does not hold `n²`
+    /// values.
+    pub fn eval_dense(&mut self, t: f64, x: &[f64], u: &[f64], jac: &mut [f64]) -> crate::Result<()> {
         let n = self.pattern.n();
-        assert_eq!(jac.len(), n * n, "eval_dense: jac must hold n² values");
+        if jac.len() != n * n {
+            return Err(crate::Error::invalid(
+                "jac",
+                format!("{} values for a dense {n} × {n} Jacobian", jac.len()),
+            ));
+        }
         if n <= NATIVE_DENSE && self.native(1, t, x, u, jac) {
-            return;
+            return Ok(());
         }
         let mut csc = std::mem::take(&mut self.csc);
         let done = self.native(0, t, x, u, &mut csc);
@@ -562,12 +571,13 @@ impl CompiledJacobian {
         } else {
             self.program.run(t, x, u, &mut self.vals);
             for &(s, d) in &self.dense {
-                // SAFETY: `d = i + n·j < n² = jac.len()` (asserted above) and `s` is a slot
+                // SAFETY: `d = i + n·j < n² = jac.len()` (checked above) and `s` is a slot
                 // of the program, below `vals.len()`
                 unsafe { *jac.get_unchecked_mut(d) = *self.vals.get_unchecked(s as usize) };
             }
         }
         self.csc = csc;
+        Ok(())
     }
 }
 
@@ -575,18 +585,15 @@ impl SparseJacobian for CompiledJacobian {
     fn pattern(&self) -> &Pattern {
         &self.pattern
     }
-    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) {
-        assert_eq!(
-            values.len(),
-            self.pattern.nnz(),
-            "eval: values must hold one value per non-zero"
-        );
+    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) -> crate::Result<()> {
+        crate::sparse::check_values(values, self.pattern.nnz())?;
         if self.native(0, t, x, u, values) {
-            return;
+            return Ok(());
         }
         self.program.run(t, x, u, &mut self.vals);
         for (v, &s) in values.iter_mut().zip(&self.program.outputs) {
             *v = self.vals[s as usize];
         }
+        Ok(())
     }
 }

@@ -74,7 +74,10 @@ pub enum Func {
     Cbrt,
     /// `|a|`
     Abs,
-    /// `sign a` (±1, the derivative of `|a|`)
+    /// `sign a`: ±1 by the sign bit, as `f64::signum` (+1 at +0, −1 at −0, NaN at NaN).
+    /// It is `signum()`'s value and the derivative of `|a|`, which num-dual takes by the
+    /// same sign bit (`|a|` is `a` when `a` is sign-positive, `−a` otherwise), so the
+    /// two Jacobians agree at ±0 too.
     Sign,
     /// `asin a`
     Asin,
@@ -113,15 +116,7 @@ impl Func {
             Func::Sqrt => a.sqrt(),
             Func::Cbrt => a.cbrt(),
             Func::Abs => a.abs(),
-            Func::Sign => {
-                if a.is_nan() {
-                    a
-                } else if a == 0.0 {
-                    0.0
-                } else {
-                    a.signum()
-                }
-            }
+            Func::Sign => a.signum(),
             Func::Asin => a.asin(),
             Func::Acos => a.acos(),
             Func::Atan => a.atan(),

@@ -833,12 +833,6 @@ impl Traced {
             );
             "    let p = &P;\n"
         };
-        let mut roots = self.f.clone();
-        roots.extend(self.jx.iter().map(|e| e.2));
-        if print::uses_sign(&self.g, &roots) {
-            s += "/// `sign a` as the symbolic derivative of `|a|` uses it (0 at 0).\n";
-            s += "fn sgn(a: f64) -> f64 {\n    if a == 0.0 || a.is_nan() { a } else { a.signum() }\n}\n\n";
-        }
         let f: Vec<(String, u32)> = self
             .f
             .iter()

@@ -475,10 +475,7 @@ impl Printer<'_> {
     fn func(&self, f: Func, a: u32) -> String {
         let arg = self.expr(a);
         match self.lang {
-            Lang::Rust => match f {
-                Func::Sign => format!("sgn({arg})"),
-                _ => format!("{}.{}()", self.wrap(a, 5), f.name()),
-            },
+            Lang::Rust => format!("{}.{}()", self.wrap(a, 5), f.name()),
             Lang::Text => match f {
                 Func::Abs => format!("|{arg}|"),
                 Func::Sqrt => format!("√({arg})"),
@@ -611,12 +608,4 @@ pub(crate) fn rust_body(g: &Graph, targets: &[(String, u32)], names: &Names, ind
         let _ = writeln!(out, "{indent}{target} = {};", p.expr(*id));
     }
     out
-}
-
-/// Whether the Rust body uses the `sgn` helper.
-pub(crate) fn uses_sign(g: &Graph, roots: &[u32]) -> bool {
-    g.reachable(roots)
-        .iter()
-        .enumerate()
-        .any(|(id, &r)| r && matches!(g.node(id as u32), Node::F(Func::Sign, _)))
 }

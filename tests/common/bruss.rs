@@ -124,7 +124,7 @@ impl SparseJacobian for HandJac {
     fn pattern(&self) -> &Pattern {
         &self.pattern
     }
-    fn eval(&mut self, _t: f64, x: &[f64], _u: &[f64], values: &mut [f64]) {
+    fn eval(&mut self, _t: f64, x: &[f64], _u: &[f64], values: &mut [f64]) -> reckon::Result<()> {
         self.calls.set(self.calls.get() + 1);
         let (cp, ri) = (self.pattern.col_ptr(), self.pattern.row_idx());
         for j in 0..self.pattern.n() {
@@ -132,6 +132,7 @@ impl SparseJacobian for HandJac {
                 values[k] = exact(x, self.c, ri[k], j);
             }
         }
+        Ok(())
     }
 }
 
@@ -145,7 +146,7 @@ impl<J: SparseJacobian> SparseJacobian for Counted<J> {
     fn pattern(&self) -> &Pattern {
         self.inner.pattern()
     }
-    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) {
+    fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) -> reckon::Result<()> {
         self.calls.set(self.calls.get() + 1);
         self.inner.eval(t, x, u, values)
     }

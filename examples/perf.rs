@@ -644,13 +644,17 @@ fn jac_small<const M: usize>(name: &str, f: &impl System<Const<M>>, x: SVector<f
         }),
         Contender::new("symbolic", |n| {
             for _ in 0..n {
-                compiled.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js).unwrap();
+                compiled
+                    .eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js)
+                    .unwrap();
                 black_box(&js);
             }
         }),
         Contender::new("interpreted", |n| {
             for _ in 0..n {
-                interpreted.eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js2).unwrap();
+                interpreted
+                    .eval_dense(0.0, black_box(x.as_slice()), black_box(u), &mut js2)
+                    .unwrap();
                 black_box(&js2);
             }
         }),

@@ -1242,6 +1242,16 @@ fn flags_get_their_own_messages_and_limits() {
             vec!["stiffness", "--problem", "brusselator:500001", "--out", out],
             "brusselator:N needs N from 1 to 500000 grid points",
         ),
+        // issue 38 item 12 (found by the cli_args fuzz target): LaTeX and MathML print
+        // ∂f/∂x as a dense matrix, n² cells (1.8 GB for 4 000 states): refused up front
+        (
+            vec!["jacobian", "--problem", "brusselator:101", "--format", "mathml"],
+            "--format mathml prints ∂f/∂x as a dense matrix, for at most 200 states; this model has 202",
+        ),
+        (
+            vec!["jacobian", "--problem", "brusselator:500000", "--format", "latex"],
+            "--format latex prints ∂f/∂x as a dense matrix, for at most 200 states; this model has 1000000",
+        ),
     ];
     for (args, needle) in cases {
         let o = reckon(&args);

@@ -166,3 +166,34 @@ fn dense_output_is_hermite_between_the_steps() {
         );
     }
 }
+
+/// Issue 38 item 12 (the `solve` fuzz target): a matrix of norm far above 1e11 made
+/// nalgebra's number of squarings `∞ as u64` and `expm` never returned (exponential Euler
+/// on a state of 2e23 hung). Now it is scaled first: a decaying one gives its limit, a
+/// growing one the typed overflow error.
+#[test]
+fn exponential_of_a_huge_matrix_returns() {
+    use reckon::linalg::expm::expm;
+    let m = nalgebra::DMatrix::from_row_slice(2, 2, &[-1e200, 0.0, 0.0, -3e23]);
+    let e = expm(&m).unwrap();
+    assert_eq!(e, nalgebra::DMatrix::zeros(2, 2));
+    let r = nalgebra::DMatrix::from_row_slice(2, 2, &[0.0, -1e300, 1e300, 0.0]);
+    assert!(expm(&r).is_err() || expm(&r).unwrap().iter().all(|v| v.is_finite()));
+    let g = nalgebra::DMatrix::from_row_slice(2, 2, &[1e12, 1.0, 0.0, 2.0]);
+    assert!(matches!(expm(&g), Err(reckon::Error::InvalidInput { .. })));
+    // below the bound nalgebra's own result, bit for bit
+    let s = nalgebra::DMatrix::from_row_slice(2, 2, &[-3.0, 1.0, 0.5, -2.0]);
+    assert_eq!(expm(&s).unwrap(), s.exp());
+    // the case the fuzzer found: it ends (with an error or not) instead of hanging
+    let f = reckon::model!(|_, y: [S; 2], p: [S; 2] = [2.625, -1e-300]| nalgebra::Vector2::new(
+        y[1],
+        p[0] * (1.0 - y[0] * y[0]) * y[1] - y[0] * p[1]
+    ));
+    let p = reckon::Problem::new(
+        &f,
+        nalgebra::Vector2::new(-2.2402100702601873e23, 10.0),
+        (1e-7, 5.5000001),
+    );
+    let o = reckon::Options::default().rtol(0.0).atol(1e-6).max_steps(8406);
+    let _ = p.solve(reckon::methods::ExponentialEuler::default(), &o);
+}

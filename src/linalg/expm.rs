@@ -23,8 +23,9 @@ use nalgebra::DMatrix;
 
 /// `e^M` for a square matrix with finite entries (nalgebra's scaling and squaring).
 ///
-/// Errors: [`Error::InvalidInput`] for a non-square matrix or a non-finite entry (a
-/// non-finite norm would make the number of squarings meaningless).
+/// Errors: [`Error::InvalidInput`] for a non-square matrix, a non-finite entry (a
+/// non-finite norm would make the number of squarings meaningless), a norm above
+/// [`MAX_NORM`], or an exponential that overflows.
 ///
 /// ```
 /// use reckon::linalg::expm::expm;
@@ -55,7 +56,19 @@ pub fn expm(m: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     if m.nrows() == 0 {
         return Ok(m.clone());
     }
-    let e = exp_bounded(m);
+    let norm = m
+        .column_iter()
+        .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    if !(norm <= MAX_NORM) {
+        return Err(Error::invalid(
+            "matrix",
+            format!(
+                "‖M‖₁ = {norm:e} is above {MAX_NORM:e}: scaling and squaring would leave no correct digit (or never end)"
+            ),
+        ));
+    }
+    let e = m.exp();
     if let Some(i) = e.iter().position(|v| !v.is_finite()) {
         return Err(Error::invalid(
             "matrix",
@@ -71,34 +84,14 @@ pub fn expm(m: &DMatrix<f64>) -> Result<DMatrix<f64>> {
     Ok(e)
 }
 
-/// Above this bound on `‖M‖₁` nalgebra's [`Matrix::exp`](nalgebra::Matrix::exp) is not
-/// called on `M` itself (see [`exp_bounded`]).
-const NALGEBRA_MAX_NORM: f64 = 1e10;
-
-/// nalgebra's `exp` with its number of squarings bounded. nalgebra picks that number from
-/// 1-norms of powers of `M` and of `|M|` up to the 27th: once `‖M‖` is above about 1e11
-/// they overflow to ∞, `∞ as u64` is `u64::MAX`, and the squaring loop never ends (the
-/// `solve` fuzz target found exponential Euler hanging on a state of 2e23; with debug
-/// assertions the count overflows and panics instead). So a matrix whose norm may exceed
-/// [`NALGEBRA_MAX_NORM`] is scaled by `2⁻ᵏ` to below it, exponentiated by nalgebra, and
-/// squared `k` times here (`k` ≤ 1 100 for finite entries); below the bound, nalgebra's
-/// own choice is kept, bit for bit.
-fn exp_bounded(m: &DMatrix<f64>) -> DMatrix<f64> {
-    // ‖M‖₁ ≤ n·max|mᵢⱼ|, in logarithms so that it cannot overflow
-    let biggest = m.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    let log2_bound = biggest.log2() + (m.nrows() as f64).log2();
-    if !(log2_bound > NALGEBRA_MAX_NORM.log2()) {
-        return m.exp();
-    }
-    let k = (log2_bound - NALGEBRA_MAX_NORM.log2()).ceil() as i32;
-    // 2⁻ᵏ in two factors: one alone would be subnormal for k > 1022
-    let scaled = m * 2f64.powi(-(k / 2)) * 2f64.powi(-(k - k / 2));
-    let mut x = scaled.exp();
-    for _ in 0..k {
-        x = &x * &x;
-    }
-    x
-}
+/// The largest `‖M‖₁` [`expm`] takes. nalgebra's [`Matrix::exp`](nalgebra::Matrix::exp)
+/// picks its number of squarings from 1-norms of powers of `M` and of `|M|` up to the
+/// 27th: above `1.8e308^(1/27) ≈ 2.6e11` they overflow to ∞, `∞ as u64` is `u64::MAX`,
+/// and the squaring loop never ends (the `solve` fuzz target found exponential Euler
+/// hanging on a state of 2e23; with debug assertions the count overflows and panics).
+/// Scaling such a matrix down first does not help: after `k` squarings a relative error
+/// of `2ᵏ·ε` is left, so `diag(−1e200, −1)` would come out `diag(0, 1)`. So it is refused.
+pub const MAX_NORM: f64 = 1e11;
 
 /// `Σ_{k=1..p} φ_k(A)·w_k` for the columns `w = [w_1, …, w_p]` (`n × p`), from one
 /// exponential of the `(n + p)`-square block matrix of the module's note; also returns

@@ -166,6 +166,7 @@ fn main() {
                 p2 - p4
             ]
         });
+        // scipy's Radau and BDF at rtol 1e-13, atol 1e-30 agree with it to 10 digits
         let r = [
             7.481320821343046e-06,
             2.373478155598164e-12,

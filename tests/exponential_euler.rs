@@ -167,7 +167,7 @@ fn dense_output_is_hermite_between_the_steps() {
     }
 }
 
-/// Issue 38 item 12 (the `solve` fuzz target): a matrix of norm far above 1e11 made
+/// Issue 38 item 12 (the `solve` fuzz target): a matrix of norm far above 2.6e11 made
 /// nalgebra's number of squarings `∞ as u64` and `expm` never returned (exponential Euler
 /// on a state of 2e23 hung). Such a matrix is now a typed error; up to the bound
 /// nalgebra's result is unchanged.

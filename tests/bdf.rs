@@ -322,3 +322,20 @@ fn events_on_the_stiff_methods() {
         assert!((t - a).abs() < 1e-7, "{m}: event at {t}, exact {a}");
     }
 }
+
+/// Issue 38 item 12 (the `solve` fuzz target): a start history whose values are not the
+/// state's length is a typed error, not a panic in the difference table.
+#[test]
+fn history_of_another_length_is_refused() {
+    let f = model!(|_t, x: [S; Dyn]| x.map(|v| -v));
+    let x0 = nalgebra::DVector::from_vec(vec![1.0, 2.0]);
+    let p = Problem::new(&f, x0.clone(), (0.0, 1.0));
+    for bad in [
+        vec![x0.clone(), nalgebra::DVector::from_vec(vec![1.0])],
+        vec![nalgebra::DVector::zeros(3)],
+    ] {
+        let e = p.solve(Bdf::default().history(bad), &Options::default()).unwrap_err();
+        assert!(matches!(e, Error::InvalidInput { what: "history", .. }), "{e}");
+    }
+    assert!(p.solve(Bdf::default().history(vec![x0]), &Options::default()).is_ok());
+}

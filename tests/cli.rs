@@ -516,9 +516,9 @@ fn study_commands_write_files_and_json() {
         "--problem",
         "rotation-decay",
         "--methods",
-        "rk45",
+        "rk45,rk45",
         "--tolerances",
-        "1e-4,1e-8",
+        "1e-4,1e-8,1e-4",
         "--runs",
         "1",
         "--json",
@@ -526,6 +526,7 @@ fn study_commands_write_files_and_json() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let pts = v["points"].as_array().unwrap();
+    // a method or a tolerance given twice is one setting
     assert_eq!(pts.len(), 2);
     assert!(pts[1]["error"].as_f64().unwrap() < pts[0]["error"].as_f64().unwrap());
 }
@@ -1165,6 +1166,18 @@ fn flags_get_their_own_messages_and_limits() {
                 "--out",
                 out,
                 "--tolerances",
+                "1e-3,5.9e18",
+            ],
+            "tolerance must be below 1 (a relative tolerance of 1 asks for no correct digit), got 5900000000000000000",
+        ),
+        (
+            vec![
+                "work-precision",
+                "--problem",
+                "dahlquist",
+                "--out",
+                out,
+                "--tolerances",
                 "1e-3",
                 "--runs",
                 "-1",
@@ -1241,6 +1254,16 @@ fn flags_get_their_own_messages_and_limits() {
         (
             vec!["stiffness", "--problem", "brusselator:500001", "--out", out],
             "brusselator:N needs N from 1 to 500000 grid points",
+        ),
+        // issue 38 item 12 (found by the cli_args fuzz target): LaTeX and MathML print
+        // ∂f/∂x as a dense matrix, n² cells (1.8 GB for 4 000 states): refused up front
+        (
+            vec!["jacobian", "--problem", "brusselator:101", "--format", "mathml"],
+            "--format mathml prints ∂f/∂x as a dense matrix, for at most 200 states; this model has 202",
+        ),
+        (
+            vec!["jacobian", "--problem", "brusselator:500000", "--format", "latex"],
+            "--format latex prints ∂f/∂x as a dense matrix, for at most 200 states; this model has 1000000",
         ),
     ];
     for (args, needle) in cases {

@@ -166,3 +166,55 @@ fn dense_output_is_hermite_between_the_steps() {
         );
     }
 }
+
+/// Issue 38 item 12 (the `solve` fuzz target): nalgebra's `exp` takes part of its
+/// squaring count from `‖|A|²⁷‖₁`, which overflowed for a large or non-normal matrix;
+/// the count became `∞ as u64` and `expm` never returned (exponential Euler on a state
+/// of 2e23 hung). Now a matrix above `MAX_NORM` (52 squarings: no digit left) is a typed
+/// error, a non-normal one is scaled until the count is finite, and anything nalgebra
+/// handled is nalgebra's result bit for bit.
+#[test]
+fn exponential_of_a_huge_matrix_returns() {
+    use reckon::linalg::expm::{MAX_NORM, expm};
+    for m in [
+        nalgebra::DMatrix::from_row_slice(2, 2, &[-1e200, 0.0, 0.0, -1.0]),
+        nalgebra::DMatrix::from_row_slice(2, 2, &[0.0, -1e300, 1e300, 0.0]),
+        nalgebra::DMatrix::from_row_slice(2, 2, &[-MAX_NORM * 2.0, 0.0, 0.0, 0.0]),
+        nalgebra::DMatrix::from_row_slice(2, 2, &[f64::MAX, f64::MAX, f64::MAX, f64::MAX]),
+    ] {
+        assert!(
+            matches!(expm(&m), Err(reckon::Error::InvalidInput { what: "matrix", .. })),
+            "{m}"
+        );
+    }
+    let s = nalgebra::DMatrix::from_row_slice(2, 2, &[-3.0, 1.0, 0.5, -2.0]);
+    assert_eq!(expm(&s).unwrap(), s.exp());
+    // 35 squarings: e⁻¹ keeps about 5 digits next to e^{−10¹¹} = 0
+    let d = nalgebra::DMatrix::from_row_slice(2, 2, &[-1e11, 0.0, 0.0, -1.0]);
+    let e = expm(&d).unwrap();
+    assert!(e[(0, 0)] == 0.0 && (e[(1, 1)] - (-1f64).exp()).abs() < 1e-4, "{e}");
+    assert_eq!(e, d.exp());
+    // nilpotent, but |A| has spectral radius 2·10¹²: nalgebra's own exp never returned
+    // (‖|A|²⁷‖₁ overflows). It ends now; e^A = I + A is so ill-conditioned here that
+    // scaling and squaring amplifies the Padé step's rounding (nalgebra gives NaN at
+    // a = 10⁹), so the test asks that it end with a finite matrix or the typed error.
+    for a in [1e9, 1e12, 1e15] {
+        let n = nalgebra::DMatrix::from_row_slice(2, 2, &[a, a, -a, -a]);
+        match expm(&n) {
+            Ok(e) => assert!(e.iter().all(|v| v.is_finite()), "{e}"),
+            Err(err) => assert!(matches!(err, reckon::Error::InvalidInput { what: "matrix", .. })),
+        }
+    }
+    // the case the fuzzer found: it ends (with an error or not) instead of hanging
+    let f = reckon::model!(|_, y: [S; 2], p: [S; 2] = [2.625, -1e-300]| nalgebra::Vector2::new(
+        y[1],
+        p[0] * (1.0 - y[0] * y[0]) * y[1] - y[0] * p[1]
+    ));
+    let p = reckon::Problem::new(
+        &f,
+        nalgebra::Vector2::new(-2.2402100702601873e23, 10.0),
+        (1e-7, 5.5000001),
+    );
+    let o = reckon::Options::default().rtol(0.0).atol(1e-6).max_steps(8406);
+    let _ = p.solve(reckon::methods::ExponentialEuler::default(), &o);
+}

@@ -51,6 +51,25 @@ fn solve_regressions_do_not_panic() {
     replay("solve", harness::solve);
 }
 
+/// Inputs recorded with the first version of `cli_args` (five commands), replayed with
+/// its decoding.
+#[test]
+fn cli_args_v1_regressions_do_not_panic() {
+    replay("cli_args_v1", harness::cli_args_v1);
+}
+
+/// Inputs recorded with the first version of `solve` (four methods and exact, six
+/// models), replayed with its decoding.
+#[test]
+fn solve_v1_regressions_do_not_panic() {
+    replay("solve_v1", harness::solve_v1);
+}
+
+#[test]
+fn trace_regressions_do_not_panic() {
+    replay("trace", harness::trace_target);
+}
+
 /// Print the case an input decodes to, then run it:
 /// `FUZZ_SHOW=cli_args:fuzz/regressions/cli_args/<file> cargo test --release --test fuzz_replay -- --ignored show --nocapture`.
 #[test]
@@ -66,6 +85,9 @@ fn show() {
         "csv_inputs" => harness::csv_inputs(&data),
         "cli_args" => harness::cli_args(&data),
         "solve" => harness::solve(&data),
+        "solve_v1" => harness::solve_v1(&data),
+        "cli_args_v1" => harness::cli_args_v1(&data),
+        "trace" => harness::trace_target(&data),
         other => panic!("unknown target {other}"),
     }
     harness::remove_scratch();

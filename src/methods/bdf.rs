@@ -225,7 +225,8 @@ where
     }
     /// Start from known past values `x(t₀ − h), x(t₀ − 2h), …, x(t₀ − k·h)` on the first
     /// step's `h` (a fixed-step order study started from exact values): the run begins
-    /// at order `k` = the number of values given (at most 5).
+    /// at order `k` = the number of values given (at most 5). A value whose length is not
+    /// the state's is [`Error::InvalidInput`](crate::Error::InvalidInput) when the solve starts.
     pub fn history(mut self, past: Vec<OVector<f64, D>>) -> Self {
         self.start_history = Some(past);
         self
@@ -332,6 +333,14 @@ where
         let mut restart = true;
         let mut order = 1;
         if let Some(past) = self.start_history.as_ref().filter(|p| !p.is_empty()) {
+            // a dynamic state may be handed past values of another length (the fuzz target
+            // `solve` found the subtraction below panicking on one)
+            if let Some((j, v)) = past.iter().enumerate().find(|(_, v)| v.len() != x0.len()) {
+                return Err(crate::Error::invalid(
+                    "history",
+                    format!("past value {j} has {} components, the state {}", v.len(), x0.len()),
+                ));
+            }
             // values y_n, y_{n−1}, …, y_{n−k} → backward differences ∇ʲ y_n
             let k = past.len().min(MAX_ORDER);
             let mut vals: Vec<OVector<f64, D>> = std::iter::once(x0.clone()).chain(past[..k].iter().cloned()).collect();

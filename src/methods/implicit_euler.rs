@@ -107,6 +107,9 @@ where
     fn crossing_test(&self) -> bool {
         true
     }
+    fn error_scale(&self, w: &Weights<D>) -> f64 {
+        1.0 / proportional(w)
+    }
     fn name(&self) -> &'static str {
         "implicit-euler"
     }
@@ -158,8 +161,13 @@ where
         }
         s.psi.copy_from(&s.y_p);
         s.psi -= x;
+        // Newton stops well inside the (proportional) error tolerance, but not below
+        // what rounding lets it see (scipy's floor 10ε/rtol)
         let goal = Goal {
-            tol: self.newton.tol.unwrap_or_else(|| newton::default_tol(w)),
+            tol: self.newton.tol.unwrap_or_else(|| {
+                let floor = 10.0 * f64::EPSILON / min_rtol(w);
+                (newton::default_tol(w) * proportional(w)).max(floor)
+            }),
             max_iters: self.newton.max_iters,
         };
         if let Some(why) = s.newton.solve(f, t + h, &s.y_p, h, &s.psi, x_new, &mut s.d, w, &goal)? {
@@ -177,7 +185,7 @@ where
         }
         s.newton.solve_lu(&mut s.fx);
         Ok(Outcome::Done {
-            err: w.norm(&s.fx, x, x_new),
+            err: w.norm(&s.fx, x, x_new) / proportional(w),
         })
     }
     fn accept(&mut self) {
@@ -198,4 +206,27 @@ where
             s.last = None;
         }
     }
+}
+
+/// The factor of tolerance proportionality, `min(1, r)` for the smallest positive `rtol`
+/// `r` (1 when every `rtol` is 0: pure absolute control).
+fn proportional<D: nalgebra::Dim>(w: &Weights<D>) -> f64
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let r = w
+        .rtol
+        .iter()
+        .copied()
+        .filter(|r| *r > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if r.is_finite() { r.clamp(f64::EPSILON, 1.0) } else { 1.0 }
+}
+
+/// The smallest `rtol`, at least ε (as [`newton::default_tol`] reads it).
+fn min_rtol<D: nalgebra::Dim>(w: &Weights<D>) -> f64
+where
+    DefaultAllocator: Allocator<D>,
+{
+    w.rtol.iter().copied().fold(f64::INFINITY, f64::min).max(f64::EPSILON)
 }

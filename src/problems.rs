@@ -93,6 +93,39 @@ pub fn orego() -> impl crate::DualSystem<Const<3>> + Clone {
 /// OREGO's state at `t = 360` (Test Set `orego.f`; the report's table agrees to 12.8 digits).
 pub const OREGO_REF_360: [f64; 3] = [1.000814870318523, 1228.178521549917, 132.0554942846706];
 
+/// E5 (Hairer–Wanner IV, Test Set `e5.f`), badly scaled chemical kinetics:
+/// `p₁ = a·y1`, `p₂ = b·y1·y3`, `p₃ = c·m·y2·y3`, `p₄ = c·y4`,
+/// `y' = (−p₁ − p₂, p₁ − p₃, p₁ − p₂ − p₃ + p₄, p₂ − p₄)` with `a = 7.89e-10`, `b = 1.1e7`,
+/// `c = 1.13e3`, `m = 1e6`, `y0 = (1.76e-3, 0, 0, 0)`; the Test Set's `atol` is 1.7e-24.
+/// Reference at `t = 1e5` in [`E5_REF_1E5`].
+pub fn e5() -> impl crate::DualSystem<Const<4>> + Clone {
+    const A: f64 = 7.89e-10;
+    const B: f64 = 1.1e7;
+    const C: f64 = 1.13e3;
+    const M: f64 = 1e6;
+    crate::model!(|_, y: [S; 4]| {
+        let p1 = y[0].clone() * A;
+        let p2 = y[0].clone() * y[2].clone() * B;
+        let p3 = y[1].clone() * y[2].clone() * (C * M);
+        let p4 = y[3].clone() * C;
+        vector![
+            -p1.clone() - p2.clone(),
+            p1.clone() - p3.clone(),
+            p1 - p2.clone() - p3 + p4.clone(),
+            p2 - p4
+        ]
+    })
+}
+
+/// E5's state at `t = 1e5` (scipy's Radau and BDF at rtol 1e-13, atol 1e-30 agree with it
+/// to 10 digits).
+pub const E5_REF_1E5: [f64; 4] = [
+    7.481320821343046e-06,
+    2.373478155598164e-12,
+    2.21235866912532e-12,
+    1.611194871512123e-13,
+];
+
 /// HIRES, "high irradiance responses" of photomorphogenesis (Test Set `hires.f`), 8 states,
 /// `y0 = (1, 0, 0, 0, 0, 0, 0, 0.0057)`; reference at `t = 321.8122` in [`HIRES_REF`].
 pub fn hires() -> impl crate::DualSystem<Const<8>> + Clone {

@@ -217,17 +217,17 @@ where
         if !adaptive {
             return Ok(Outcome::Done { err: 0.0 });
         }
+        let (k1, k3, k4, k5, k6, k7) = (
+            k1.as_slice(),
+            k3.as_slice(),
+            k4.as_slice(),
+            k5.as_slice(),
+            k6.as_slice(),
+            k7.as_slice(),
+        );
         // the error estimate covers the controlled components only; the others are
         // watched (the sensitivities of an augmented solve)
         if w.controlled < n {
-            let (k1, k3, k4, k5, k6, k7) = (
-                k1.as_slice(),
-                k3.as_slice(),
-                k4.as_slice(),
-                k5.as_slice(),
-                k6.as_slice(),
-                k7.as_slice(),
-            );
             w.rest_from(
                 |i| h * (E[0] * k1[i] + E[2] * k3[i] + E[3] * k4[i] + E[4] * k5[i] + E[5] * k6[i] + E[6] * k7[i]),
                 x.as_slice(),
@@ -242,14 +242,6 @@ where
                 &y6.as_slice()[m..],
             ));
         }
-        let (k1, k3, k4, k5, k6, k7) = (
-            k1.as_slice(),
-            k3.as_slice(),
-            k4.as_slice(),
-            k5.as_slice(),
-            k6.as_slice(),
-            k7.as_slice(),
-        );
         macro_rules! sum {
             ($n:expr) => {{
                 let n = $n;

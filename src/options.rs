@@ -92,8 +92,9 @@ pub struct Options {
 /// let f = model!(|_t, x: [S; 1]| vector![if x[0] > S::from(2.0) { S::from(2.0) } else { -x[0].clone() }]);
 /// let p = Problem::new(&f, vector![1.0], (0.0, 1.0));
 /// assert_eq!(Options::default().linear_solver, LinearSolver::Auto);
-/// assert!(p.solve(ImplicitEuler::default(), &Options::default()).is_ok()); // dense
-/// let forced = Options::default().linear_solver(LinearSolver::Sparse);
+/// let o = Options::default().rtol(1e-3).atol(1e-3);
+/// assert!(p.solve(ImplicitEuler::default(), &o).is_ok()); // dense
+/// let forced = o.linear_solver(LinearSolver::Sparse);
 /// let e = p.solve(ImplicitEuler::default(), &forced).unwrap_err();
 /// assert!(matches!(e, Error::InvalidInput { what: "linear_solver", .. }));
 /// ```

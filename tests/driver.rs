@@ -25,8 +25,11 @@ fn breakpoints_and_t_end_are_hit_exactly() {
     let runs = [
         p.solve(Dopri5::default(), &Options::default().breakpoints([extra]))
             .unwrap(),
-        p.solve(ImplicitEuler::default(), &Options::default().breakpoints([extra]))
-            .unwrap(),
+        p.solve(
+            ImplicitEuler::default(),
+            &Options::default().rtol(1e-4).breakpoints([extra]),
+        )
+        .unwrap(),
         p.solve(ExplicitEuler, &Options::default().fixed(0.1).breakpoints([extra]))
             .unwrap(),
         p.solve(Exact::new(unicycle::flow), &Options::default().breakpoints([extra]))
@@ -172,7 +175,7 @@ fn dynamic_brusselator_with_faer_lu() {
         .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-10))
         .unwrap();
     let ie = p
-        .solve(ImplicitEuler::default(), &Options::default().rtol(1e-6).atol(1e-6))
+        .solve(ImplicitEuler::default(), &Options::default().rtol(1e-3).atol(1e-3))
         .unwrap();
     let diff: DVector<f64> = ie.last().1 - rk.last().1;
     assert!(diff.amax() < 2e-2, "difference {}", diff.amax());
@@ -216,10 +219,16 @@ fn lean_solve_equals_stepping() {
     let mut rejected = 0;
     for (t0, t1) in [(0.0, 12.0), (12.0, 0.0), (1.7e9, 1.7e9 + 12.0)] {
         let p = Problem::new(&vdp, vector![2.0, 0.0], (t0, t1));
-        for tol in [1e-3, 1e-7] {
-            let opts = Options::default().rtol(tol).atol(tol).dense(false).max_steps(1_000_000);
+        // implicit Euler holds its local error to tol·rtol: a looser tol for the same work
+        for (tol_rk, tol_ie) in [(1e-3, 1e-2), (1e-7, 1e-4)] {
             macro_rules! same {
-                ($m:expr) => {{
+                ($m:expr, $tol:expr) => {{
+                    let tol = $tol;
+                    let opts = Options::default()
+                        .rtol(tol)
+                        .atol(tol)
+                        .dense(false)
+                        .max_steps(1_000_000);
                     let sol = p.solve($m, &opts).unwrap();
                     let mut it = p.integrator($m, &opts).unwrap();
                     let mut t = vec![it.t()];
@@ -235,8 +244,8 @@ fn lean_solve_equals_stepping() {
                     assert_eq!(*sol.t.last().unwrap(), t1);
                 }};
             }
-            same!(Dopri5::default());
-            same!(ImplicitEuler::default());
+            same!(Dopri5::default(), tol_rk);
+            same!(ImplicitEuler::default(), tol_ie);
         }
     }
     assert!(rejected > 10, "rejections exercised: {rejected}");

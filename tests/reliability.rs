@@ -23,11 +23,14 @@ fn epoch_timestamps_integrate_like_t0_zero() {
     for t0 in [0.0, 1.7e9, 1.7e12, -1.7e12] {
         let p = Problem::new(&f, vector![1.0, 1.0], (t0, t0 + 2.0));
         let rk = p.solve(Dopri5::default(), &opts).unwrap();
-        let ie = p.solve(ImplicitEuler::default(), &opts).unwrap();
+        // adaptive implicit Euler, first order: at rtol 1e-4 (its error follows the
+        // tolerance; 1e-8 would take millions of steps)
+        let ie = p
+            .solve(ImplicitEuler::default(), &Options::default().rtol(1e-4).atol(1e-6))
+            .unwrap();
         assert_eq!(rk.last().0, t0 + 2.0);
         assert!((rk.last().1 - exact(2.0)).amax() < 1e-7, "rk45 at t0 = {t0}");
-        // adaptive implicit Euler: first order, error ~ rtol^(1/2)
-        assert!((ie.last().1 - exact(2.0)).amax() < 1e-3, "implicit Euler at t0 = {t0}");
+        assert!((ie.last().1 - exact(2.0)).amax() < 1e-4, "implicit Euler at t0 = {t0}");
         // same number of steps as from 0: the epoch costs nothing
         let p0 = Problem::new(&f, vector![1.0, 1.0], (0.0, 2.0));
         let rk0 = p0.solve(Dopri5::default(), &opts).unwrap();
@@ -306,26 +309,30 @@ fn errors_print_numbers_briefly() {
     assert!(e.to_string().len() < 60, "{e}");
 }
 
-/// The documented limit of the method: adaptive implicit Euler near the blow-up of
-/// `x' = x²` (exact `x(0.999) = 1000`) overshoots at the default tolerances, and a
-/// tighter tolerance brings it back; RK45 at the defaults is already close.
+/// The documented limit of the method: near the blow-up of `x' = x²` (exact
+/// `x(0.999) = 1000`) every local error is amplified up to 10⁶ times. Per-step implicit
+/// Euler returned 10 044.8 at the default tolerances with `Ok`; with tolerance
+/// proportionality it is 10 % off at rtol 1e-4, 1 % at 1e-5 (where it needs more than
+/// the default step limit: the typed error until the limit is raised); RK45 at the
+/// defaults is already close.
 #[test]
 fn implicit_euler_near_a_blow_up_is_a_documented_limit() {
     let f = model!(|_t, x: [S; 1]| vector![x[0] * x[0]]);
     let p = Problem::new(&f, vector![1.0], (0.0, 0.999));
-    let loose = p.solve(ImplicitEuler::default(), &Options::default()).unwrap().last().1[0];
-    let tight = p
-        .solve(
-            ImplicitEuler::default(),
-            &Options::default().rtol(1e-10).atol(1e-12).max_steps(1_000_000),
-        )
+    let at = |o: &Options| p.solve(ImplicitEuler::default(), o).map(|s| s.last().1[0]);
+    let loose = at(&Options::default().rtol(1e-4)).unwrap();
+    assert!((loose / 1000.0 - 1.0).abs() < 0.12, "{loose}");
+    let tighter = Options::default().rtol(1e-5);
+    assert!(matches!(at(&tighter), Err(Error::MaxSteps { .. })));
+    let tight = at(&tighter.max_steps(1_000_000)).unwrap();
+    assert!((tight / 1000.0 - 1.0).abs() < 0.012, "{tight}");
+    let per_step = p
+        .solve(ImplicitEuler::default().proportional(false), &Options::default())
         .unwrap()
         .last()
         .1[0];
+    assert!(per_step > 2000.0, "{per_step}");
     let rk = p.solve(Dopri5::default(), &Options::default()).unwrap().last().1[0];
-    eprintln!("implicit Euler at defaults {loose}, at 1e-10 {tight}, rk45 {rk}");
-    assert!(loose > 2000.0, "{loose}");
-    assert!((tight / 1000.0 - 1.0).abs() < 0.05, "{tight}");
     assert!((rk / 1000.0 - 1.0).abs() < 1e-3, "{rk}");
 }
 

@@ -1,5 +1,9 @@
 //! Forward sensitivities: against closed forms, the discrete propagators of the methods,
 //! and central differences of whole solves.
+//!
+//! Implicit Euler runs here with per-step error control (`proportional(false)`): what
+//! is tested is its sensitivity scheme, at tolerances where the default proportional
+//! control would take millions of steps.
 
 use nalgebra::{DMatrix, Dyn, Matrix, Matrix2, SVector, Storage, Vector2, vector};
 use reckon::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, ImplicitEuler, Rodas5P};
@@ -75,10 +79,13 @@ fn linear_system_sensitivity_is_the_discrete_propagator_for_every_method() {
         ("explicit euler, fixed", sens(&p, ExplicitEuler, &fixed)),
         ("dopri5, fixed", sens(&p, Dopri5::default(), &fixed)),
         ("dopri5, adaptive", sens(&p, Dopri5::default(), &adaptive)),
-        ("implicit euler, fixed", sens(&p, ImplicitEuler::default(), &fixed)),
+        (
+            "implicit euler, fixed",
+            sens(&p, ImplicitEuler::default().proportional(false), &fixed),
+        ),
         (
             "implicit euler, adaptive",
-            sens(&p, ImplicitEuler::default(), &adaptive),
+            sens(&p, ImplicitEuler::default().proportional(false), &adaptive),
         ),
         ("bdf, fixed", sens(&p, Bdf::default(), &fixed)),
         ("bdf, adaptive", sens(&p, Bdf::default(), &adaptive)),
@@ -101,7 +108,9 @@ fn linear_system_sensitivity_is_the_discrete_propagator_for_every_method() {
                 );
             }
             // and x is the plain solve's, step for step, bit for bit
-            let plain = p.solve(ImplicitEuler::default(), &adaptive).unwrap();
+            let plain = p
+                .solve(ImplicitEuler::default().proportional(false), &adaptive)
+                .unwrap();
             assert_eq!((&plain.t, &plain.x), (&s.t, &s.x), "{name}: x is not the plain solve's");
             continue;
         }
@@ -180,7 +189,11 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
     check!("explicit euler, fixed", ExplicitEuler, &fixed);
     check!("dopri5, fixed", Dopri5::default(), &fixed);
     check!("dopri5, adaptive", Dopri5::default(), &adaptive);
-    check!("implicit euler, fixed", ImplicitEuler::default(), &fixed);
+    check!(
+        "implicit euler, fixed",
+        ImplicitEuler::default().proportional(false),
+        &fixed
+    );
     // the derivative of the computed solution with the steps the solver took: central
     // differences of solves that replay those steps (breakpoints at the step ends, Newton
     // converged tightly), for the one-step adaptive methods
@@ -197,7 +210,7 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
     }
     let n = replay!(
         "implicit euler, adaptive",
-        ImplicitEuler::default(),
+        ImplicitEuler::default().proportional(false),
         &Options::default().rtol(1e-6).atol(1e-8)
     );
     assert!(n > 100, "{n} steps");
@@ -214,9 +227,13 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
     // with free steps a first-order method's steps depend on μ and x₀ at the level of its
     // global error, which a derivative through the steps taken leaves out: at rtol 1e-9
     // the two differ by about 1e-4 (measured 1.4e-4)
-    let s = sens(&p, ImplicitEuler::default(), &Options::default().rtol(1e-9).atol(1e-11));
+    let s = sens(
+        &p,
+        ImplicitEuler::default().proportional(false),
+        &Options::default().rtol(1e-9).atol(1e-11),
+    );
     let free = central(
-        ImplicitEuler::default,
+        || ImplicitEuler::default().proportional(false),
         &Options::default().rtol(1e-9).atol(1e-11),
         x0,
         1.5,
@@ -380,7 +397,7 @@ fn dynamic_state_with_parameters() {
     // map x_N = x₀/(1 + p·h)^N has ∂x_N/∂p = −N·h·x₀/(1 + p·h)^(N+1) and ∂x_N/∂x₀ = (1 + p·h)^−N
     let s = sensitivity::solve(
         &p,
-        ImplicitEuler::default(),
+        ImplicitEuler::default().proportional(false),
         &Options::default().fixed(0.01),
         &SensitivityOptions::default(),
     )
@@ -445,8 +462,14 @@ fn parameters_only() {
     // implicit Euler's staggered scheme solves each column on its own with the same LU
     // at the same x: bit for bit too
     let ie = Options::default().rtol(1e-6).atol(1e-9);
-    let a = sensitivity::solve(&p, ImplicitEuler::default(), &ie, &SensitivityOptions::default()).unwrap();
-    let b = sensitivity::solve(&p, ImplicitEuler::default(), &ie, &only).unwrap();
+    let a = sensitivity::solve(
+        &p,
+        ImplicitEuler::default().proportional(false),
+        &ie,
+        &SensitivityOptions::default(),
+    )
+    .unwrap();
+    let b = sensitivity::solve(&p, ImplicitEuler::default().proportional(false), &ie, &only).unwrap();
     assert_eq!((&a.t, &a.x), (&b.t, &b.x));
     for k in 0..a.t.len() {
         assert_eq!(a.wrt_params(k), b.wrt_params(k), "t = {}", a.t[k]);
@@ -497,8 +520,8 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     let x0 = vector![0.1, -0.2, 0.3];
     let p = Problem::new(&dd, x0, span).controls(log.clone());
     let o = Options::default().rtol(1e-6).atol(1e-9);
-    let s = sens(&p, ImplicitEuler::default(), &o);
-    let plain = p.solve(ImplicitEuler::default(), &o).unwrap();
+    let s = sens(&p, ImplicitEuler::default().proportional(false), &o);
+    let plain = p.solve(ImplicitEuler::default().proportional(false), &o).unwrap();
     assert_eq!((&plain.t, &plain.x), (&s.t, &s.x));
     assert!(s.t.len() > 50, "{} steps", s.t.len());
     assert_eq!((s.s(0).nrows(), s.s(0).ncols()), (3, 6));
@@ -513,7 +536,7 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
         let m = diff_drive(g).unwrap();
         *Problem::new(&m, x0, span)
             .controls(log.clone())
-            .solve(ImplicitEuler::default(), &replay)
+            .solve(ImplicitEuler::default().proportional(false), &replay)
             .unwrap()
             .last()
             .1
@@ -529,7 +552,7 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     let at: Vec<f64> = (1..40).map(|k| 0.5 * k as f64 - 0.013).collect();
     let si = sensitivity::solve(
         &p,
-        ImplicitEuler::default(),
+        ImplicitEuler::default().proportional(false),
         &o.clone().save(Save::At(at.clone())),
         &SensitivityOptions::default(),
     )
@@ -545,7 +568,7 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     // the end alone: the same last S
     let se = sensitivity::solve(
         &p,
-        ImplicitEuler::default(),
+        ImplicitEuler::default().proportional(false),
         &o.clone().save(Save::End),
         &SensitivityOptions::default(),
     )
@@ -555,7 +578,7 @@ fn implicit_euler_staggered_scheme_on_a_driven_model() {
     // S in the error control: the augmented system, its own steps
     let c = sensitivity::solve(
         &p,
-        ImplicitEuler::default(),
+        ImplicitEuler::default().proportional(false),
         &o,
         &SensitivityOptions::default().error_control(true),
     )
@@ -726,7 +749,7 @@ fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
     check("rk45", sensitivity::solve(&p, Dopri5::default(), &o, &off), unresolved);
     check(
         "implicit euler",
-        sensitivity::solve(&p, ImplicitEuler::default(), &o, &off),
+        sensitivity::solve(&p, ImplicitEuler::default().proportional(false), &o, &off),
         unresolved,
     );
     check("bdf", sensitivity::solve(&p, Bdf::default(), &o, &off), unresolved);

@@ -67,11 +67,12 @@ fn van_der_pol_mu_1000_implicit_finishes_rk45_struggles() {
 }
 
 /// Published reference (Test Set VDPOLM, Table II.8.1): y(2000) = (1.706167732170469, −0.8928097010248125e-3).
-/// Implicit Euler converges to it with error ∝ tol^½ (first order, error-per-step control).
+/// Implicit Euler converges to it with error ∝ tol (first order, its local error held at
+/// tol·rtol: tolerance proportionality).
 #[test]
 fn van_der_pol_converges_to_published_reference() {
     let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 2000.0));
-    let tols = [1e-4, 1e-5, 1e-6];
+    let tols = [1e-2, 3e-3, 1e-3];
     let errs: Vec<f64> = tols
         .iter()
         .map(|&tol| {
@@ -82,6 +83,6 @@ fn van_der_pol_converges_to_published_reference() {
         })
         .collect();
     let slope = reckon::studies::fit_order(&tols, &errs).unwrap();
-    assert!((slope - 0.5).abs() < 0.1, "error ∝ tol^{slope}: {errs:?}");
+    assert!((slope - 1.0).abs() < 0.15, "error ∝ tol^{slope}: {errs:?}");
     assert!(errs[2] < 5e-3, "{errs:?}");
 }

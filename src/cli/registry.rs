@@ -203,7 +203,9 @@ where
         };
         vec![
             history(&self.problem, Dopri5::default(), &rk45),
-            history(&self.problem, ImplicitEuler::default(), &opts),
+            // per-step control, as RK45's: the two step counts then compare the step
+            // that accuracy allows with the step that stability allows
+            history(&self.problem, ImplicitEuler::default().proportional(false), &opts),
             history(&self.problem, Bdf::default(), &opts),
             history(&self.problem, Rodas5P::default(), &opts),
             history(&self.problem, Auto::default(), &opts),
@@ -215,7 +217,7 @@ where
         if n >= SPARSE_MIN_STATES && self.problem.system.sparse_jacobian(n).is_some() {
             let (points, every) = sampled_stiffness(
                 &self.problem,
-                ImplicitEuler::default,
+                || ImplicitEuler::default().proportional(false),
                 &opts,
                 SPARSE_SAMPLES,
                 steps,
@@ -228,7 +230,9 @@ where
                 sparse: true,
             });
         }
-        let sol = self.problem.solve(ImplicitEuler::default(), &opts)?;
+        let sol = self
+            .problem
+            .solve(ImplicitEuler::default().proportional(false), &opts)?;
         Ok(StiffnessRun {
             points: stiffness_along(&self.problem.system, &sol, &self.u0(), 1)?,
             every: 1,

@@ -242,10 +242,11 @@ where
                     let iord = method.error_order().unwrap_or(1) + 1;
                     let mut probe = x0.clone();
                     let mut f1 = x0.clone();
-                    initial_step(&w, x0, &f0, iord, opts.h_max, dir, &mut probe, |dt, y| {
+                    let h = initial_step(&w, x0, &f0, iord, opts.h_max, dir, &mut probe, |dt, y| {
                         f.rhs(t0 + dt, y, &mut f1)?;
                         Ok(f1.clone())
-                    })?
+                    })?;
+                    h * method.error_scale(&w).max(1.0).powf(-1.0 / iord as f64)
                 }
             };
         }

@@ -74,6 +74,12 @@ where
     fn order(&self) -> u32;
     /// Order `q` of the embedded error estimate, `None` when there is none.
     fn error_order(&self) -> Option<u32>;
+    /// How many times the tolerance-scaled norm this method's `err` reads (≥ 1): a method
+    /// that holds its local error tighter than the tolerance (implicit Euler's tolerance
+    /// proportionality) says so, and the first step is sized for it, `h₀·scale^(−1/(q+1))`.
+    fn error_scale(&self, _w: &crate::control::Weights<D>) -> f64 {
+        1.0
+    }
     /// The step-size controller that suits the estimate.
     fn controller(&self) -> Controller {
         Controller::new(self.error_order().unwrap_or(1), 0.0)

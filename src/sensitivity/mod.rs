@@ -434,7 +434,14 @@ where
     where
         DefaultAllocator: Allocator<D, D> + Allocator<U1, D>,
     {
-        (!sens.error_control).then(|| direct::implicit_euler(problem, ImplicitEuler::<D>::new(self.newton), opts, sens))
+        (!sens.error_control).then(|| {
+            direct::implicit_euler(
+                problem,
+                ImplicitEuler::<D>::new(self.newton).proportional(self.proportional),
+                opts,
+                sens,
+            )
+        })
     }
 }
 

@@ -68,7 +68,8 @@ pub fn expm(m: &DMatrix<f64>) -> Result<DMatrix<f64>> {
             .fold(0.0, f64::max);
         (sum.log2() + biggest.log2()).exp2()
     };
-    if !(norm <= MAX_NORM) {
+    // (∞ for a sum that overflows: refused too)
+    if norm.is_nan() || norm > MAX_NORM {
         return Err(Error::invalid(
             "matrix",
             format!(

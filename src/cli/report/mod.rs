@@ -723,7 +723,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     r.end();
 
     // work–precision
-    r.section("Work–precision", "Error at the end of the Arenstorf orbit against rhs evaluations and wall time, RK45 over tolerances 1e-4…1e-10 and implicit Euler over 1e-4…1e-7 (at 1e-3 its first-order path strays into a primary and the step size underflows): for a smooth non-stiff problem the fifth-order method wins by orders of magnitude at every accuracy.");
+    r.section("Work–precision", "Error at the end of the Arenstorf orbit against rhs evaluations and wall time, RK45 over tolerances 1e-4…1e-10 and implicit Euler over 1e-2…1e-4: its error stays of the orbit's size (1.4–2.3) up to 0.46 million rhs evaluations, since a first-order method cannot follow the close approaches to the primaries, while the fifth-order method reaches small errors at a fraction of that work: for a smooth non-stiff problem it wins by orders of magnitude.");
     let ar = lookup("arenstorf")?;
     let tols: Vec<f64> = if fast {
         vec![1e-4, 1e-6]
@@ -731,10 +731,11 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
         vec![1e-4, 1e-6, 1e-8, 1e-10]
     };
     let mut pts = ar.work_precision(&[MethodKind::Rk45], &tols, &[], 1)?;
-    let ie_tols = [1e-4, 1e-5, 1e-6, 1e-7];
+    // implicit Euler's local error is held to tol·rtol: 1e-4 takes 0.46 M rhs evaluations
+    let ie_tols = [1e-2, 1e-3, 1e-4];
     pts.extend(ar.work_precision(
         &[MethodKind::ImplicitEuler],
-        &ie_tols[..if fast { 2 } else { 4 }],
+        &ie_tols[..if fast { 2 } else { 3 }],
         &[],
         1,
     )?);

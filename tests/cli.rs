@@ -497,9 +497,18 @@ fn study(args: &[&str]) -> Output {
 
 #[test]
 fn study_commands_write_files_and_json() {
-    let o = study(&["convergence", "--problem", "sin-u", "--methods", "euler,rk45", "--json"]);
+    // a method named twice is one study (a fuzzed list repeated one five times)
+    let o = study(&[
+        "convergence",
+        "--problem",
+        "sin-u",
+        "--methods",
+        "euler,rk45,euler",
+        "--json",
+    ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["fits"].as_array().unwrap().len(), 2, "{v}");
     for fit in v["fits"].as_array().unwrap() {
         let (p, th) = (fit["order_final"].as_f64().unwrap(), fit["theory"].as_f64().unwrap());
         assert!((p - th).abs() <= 0.1, "{fit}");

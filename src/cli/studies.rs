@@ -543,8 +543,6 @@ pub fn work_precision_plot(
 }
 
 pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
-    // a method, tolerance or step given twice is one setting (the same run twice would
-    // only double the time: a fuzzed list repeated a 1.4 s failing setting eight times)
     let ms = methods(&a.methods)?;
     let runs: usize = super::whole("--runs", a.runs, 1..=1000)?;
     positive("tolerance", &a.tolerances)?;
@@ -554,6 +552,8 @@ pub fn work_precision(a: &WorkPrecisionArgs) -> Res {
         )
         .into());
     }
+    // a tolerance or step given twice is one setting (the same run twice only doubles the
+    // time: a fuzzed list repeated a 1.4 s failing setting eight times)
     let tolerances = distinct(&a.tolerances);
     let steps = distinct(&a.steps.clone().unwrap_or_else(|| vec![1e-2, 1e-3, 1e-4]));
     positive("step", &steps)?;

@@ -214,7 +214,7 @@ where
         // scipy's rule (the step, not the tolerance, sets their accuracy)
         let goal = Goal {
             tol: self.newton.tol.unwrap_or_else(|| {
-                let floor = 10.0 * f64::EPSILON / min_rtol(w);
+                let floor = 10.0 * f64::EPSILON / newton::min_rtol(w);
                 let factor = if adaptive { factor } else { 1.0 };
                 (newton::default_tol(w) * factor).max(floor)
             }),
@@ -271,12 +271,4 @@ where
         .filter(|r| *r > 0.0)
         .fold(f64::INFINITY, f64::min);
     if r.is_finite() { r.clamp(f64::EPSILON, 1.0) } else { 1.0 }
-}
-
-/// The smallest `rtol`, at least ε (as [`newton::default_tol`] reads it).
-fn min_rtol<D: nalgebra::Dim>(w: &Weights<D>) -> f64
-where
-    DefaultAllocator: Allocator<D>,
-{
-    w.rtol.iter().copied().fold(f64::INFINITY, f64::min).max(f64::EPSILON)
 }

@@ -319,11 +319,19 @@ where
 /// Loose tolerances (`rtol` ≥ 1e-4) keep scipy's value; ImplicitEuler keeps `default_tol`.
 pub const BDF_TOL_FLOOR: f64 = 0.01;
 
+/// The smallest `rtol`, at least ε: the one the Newton tolerances read.
+pub(crate) fn min_rtol<D: nalgebra::Dim>(w: &Weights<D>) -> f64
+where
+    DefaultAllocator: Allocator<D>,
+{
+    w.rtol.iter().copied().fold(f64::INFINITY, f64::min).max(f64::EPSILON)
+}
+
 /// scipy's Newton tolerance `max(10ε/rtol, min(0.03, √rtol))` for the smallest `rtol`.
 pub(crate) fn default_tol<D: nalgebra::Dim>(w: &Weights<D>) -> f64
 where
     DefaultAllocator: Allocator<D>,
 {
-    let rtol = w.rtol.iter().copied().fold(f64::INFINITY, f64::min).max(f64::EPSILON);
+    let rtol = min_rtol(w);
     (10.0 * f64::EPSILON / rtol).max(0.03f64.min(rtol.sqrt()))
 }

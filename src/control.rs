@@ -99,6 +99,38 @@ where
         }
     }
 
+    /// The loose-tolerance transform of Hairer–Wanner's RADAU5: every `rtol_i` above 1e-3
+    /// becomes `r_i = 0.1·rtol_i^{2/3}` (continuous at 1e-3, where both are 1e-3; 0.0215 at
+    /// 0.1, 4.6e-3 at 1e-2), and its `atol_i` is scaled by `r_i/rtol_i` with it; tighter
+    /// components are unchanged.
+    ///
+    /// Held to the tolerance step by step, a stiff method's global error is the local
+    /// error amplified by the problem; at `rtol` 0.1 the local error is large enough to
+    /// move the phase of a limit cycle by a whole spike (OREGO: implicit Euler 4.8 digits
+    /// short at `rtol` 0.1, [`Auto`](crate::methods::Auto) 1.6 short at 3.2e-2).
+    /// [`Method::tightens_loose_tolerances`](crate::methods::Method::tightens_loose_tolerances)
+    /// says which methods the driver applies it for.
+    ///
+    /// ```
+    /// use reckon::control::Weights;
+    /// use nalgebra::vector;
+    /// let mut w = Weights::new(vector![1e-1, 1e-3, 1e-6], vector![1e-2, 1e-3, 1e-9], 3);
+    /// w.tighten_loose();
+    /// assert!((w.rtol[0] - 0.1 * 0.1f64.powf(2.0 / 3.0)).abs() < 1e-15);
+    /// assert!((w.atol[0] - 1e-2 * w.rtol[0] / 0.1).abs() < 1e-15);
+    /// assert_eq!((w.rtol[1], w.atol[1]), (1e-3, 1e-3));
+    /// assert_eq!((w.rtol[2], w.atol[2]), (1e-6, 1e-9));
+    /// ```
+    pub fn tighten_loose(&mut self) {
+        for (r, a) in self.rtol.iter_mut().zip(self.atol.iter_mut()) {
+            if *r > 1e-3 {
+                let t = 0.1 * r.powf(2.0 / 3.0);
+                *a *= t / *r;
+                *r = t;
+            }
+        }
+    }
+
     /// Treat the uncontrolled components as the columns of a sensitivity matrix, column
     /// `k` the derivative with respect to a quantity of magnitude `scales[k]`
     /// ([`uncontrolled`](Self::uncontrolled)).

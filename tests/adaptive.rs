@@ -124,7 +124,8 @@ fn adaptive_implicit_euler_error_scales_with_tolerance() {
     let x0 = vector![1.0, 0.5];
     let exact = rotation_decay_exact(2.0, &x0);
     let p = Problem::new(rotation_decay(), x0, (0.0, 2.0));
-    let tols = [1e-2, 3e-3, 1e-3, 1e-4];
+    // from 1e-3 down: a looser rtol is held as 0.1·rtol^{2/3} (`Weights::tighten_loose`)
+    let tols = [1e-3, 3e-4, 1e-4, 3e-5];
     let mut errs = Vec::new();
     for tol in tols {
         let sol = p
@@ -152,7 +153,7 @@ fn adaptive_implicit_euler_error_scales_with_tolerance() {
     let slope = fit_order(&tols, &errs).unwrap();
     assert!((slope - 1.0).abs() < 0.1, "error ∝ tol^{slope}: {errs:?}");
     // the global error within a few times the tolerance (1.7·tol measured)
-    assert!(errs[3] < 3e-4, "{errs:?}");
+    assert!(errs[3] < 3.0 * tols[3], "{errs:?}");
 }
 
 /// Pure relative control (atol = 0) of a component that stays exactly zero: its scale

@@ -112,6 +112,18 @@ fn hires_at_loose_tolerances() {
     assert_eq!(ok, 3 * rtols.len());
 }
 
+/// OREGO's limit cycle at the loose end, where a late spike is a wrong answer: held to
+/// the tolerance step by step, implicit Euler was 4.8 digits short at rtol 0.1 (a spike
+/// at t = 360 where there is none), Auto 1.6 short at 3.2e-2 and Bdf 1.4 short at 5.6e-3
+/// (scipy's 3 % Newton tolerance). The loose-tolerance transform and Bdf's 1 % Newton
+/// tolerance fixed all three.
+#[test]
+fn orego_at_loose_tolerances() {
+    let rtols = [1e-1, 5.623e-2, 3.162e-2, 5.623e-3];
+    let ok = sweep(orego(), vector![1.0, 2.0, 3.0], 360.0, OREGO_REF_360, |r| r, &rtols);
+    assert_eq!(ok, 3 * rtols.len());
+}
+
 /// E5 (Hairer–Wanner's badly scaled chemical kinetics, components from 1e-3 down to
 /// 1e-13) on [0, 1e5] with the Test Set's absolute tolerance 1.7e-24, far below every
 /// component, against [`E5_REF_1E5`]; the whole sweep k = 4 … 40 passes for all three

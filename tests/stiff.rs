@@ -68,21 +68,21 @@ fn van_der_pol_mu_1000_implicit_finishes_rk45_struggles() {
 
 /// Published reference (Test Set VDPOLM, Table II.8.1): y(2000) = (1.706167732170469, −0.8928097010248125e-3).
 /// Implicit Euler converges to it with error ∝ tol (first order, its local error held at
-/// tol·rtol: tolerance proportionality).
+/// tol·rtol: tolerance proportionality). From 1e-3 down: looser tolerances are held as
+/// `0.1·rtol^{2/3}` (`Weights::tighten_loose`), where the slope is 2/3 by design.
 #[test]
 fn van_der_pol_converges_to_published_reference() {
     let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 2000.0));
-    let tols = [1e-2, 3e-3, 1e-3];
+    let tols = [1e-3, 3e-4, 1e-4];
     let errs: Vec<f64> = tols
         .iter()
         .map(|&tol| {
-            let sol = p
-                .solve(ImplicitEuler::default(), &Options::default().rtol(tol).atol(tol * 1e-3))
-                .unwrap();
+            let o = Options::default().rtol(tol).atol(tol * 1e-3).max_steps(1_000_000);
+            let sol = p.solve(ImplicitEuler::default(), &o).unwrap();
             (sol.last().1[0] - 1.706167732170469).abs()
         })
         .collect();
     let slope = reckon::studies::fit_order(&tols, &errs).unwrap();
     assert!((slope - 1.0).abs() < 0.15, "error ∝ tol^{slope}: {errs:?}");
-    assert!(errs[2] < 5e-3, "{errs:?}");
+    assert!(errs[0] < 5e-3, "{errs:?}");
 }

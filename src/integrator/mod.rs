@@ -126,7 +126,7 @@ where
         }
         let dir = (t_end - t0).signum();
         let (r, _) = x0.shape_generic();
-        let w = Weights::new(
+        let mut w = Weights::new(
             opts.rtol.expand("rtol", r)?,
             opts.atol.expand("atol", r)?,
             match opts.error_components {
@@ -142,6 +142,9 @@ where
         );
         if (0..x0.len()).any(|i| w.rtol[i] == 0.0 && w.atol[i] == 0.0) {
             return Err(Error::invalid("atol", "rtol and atol are both zero for a component"));
+        }
+        if method.tightens_loose_tolerances() {
+            w.tighten_loose();
         }
         // inputs
         let n_in = problem.system.inputs();

@@ -58,7 +58,9 @@ impl Default for NewtonOptions {
 /// tight tolerance asks for more steps than allowed. Newton's stopping tolerance is
 /// scaled the same way, floored at `10ε/rtol`, and the first step is sized for the
 /// tighter target. `proportional(false)` is the classical per-step control (what the
-/// stiffness study counts: the step the method's accuracy needs per step).
+/// stiffness study counts: the step the method's accuracy needs per step), without the
+/// loose-tolerance transform the other implicit methods share
+/// ([`Weights::tighten_loose`](crate::control::Weights::tighten_loose)).
 ///
 /// ```
 /// use reckon::{model, methods::ImplicitEuler, Options, Problem, StepSize};
@@ -151,6 +153,12 @@ impl<D: LuDim> Method<D> for ImplicitEuler<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    /// With [`proportional`](Self::proportional) only: `proportional(false)` is the
+    /// classical per-step control at the tolerance as given (what the stiffness study
+    /// compares with RK45's step at the same tolerance).
+    fn tightens_loose_tolerances(&self) -> bool {
+        self.proportional
+    }
     fn crossing_test(&self) -> bool {
         true
     }

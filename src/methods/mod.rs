@@ -173,6 +173,15 @@ where
     fn crossing_test(&self) -> bool {
         false
     }
+    /// Whether the driver holds this method to [`Weights::tighten_loose`]'s tolerances
+    /// (`rtol` above 1e-3 tightened to `0.1·rtol^{2/3}`): on for the implicit methods,
+    /// whose large steps at a loose tolerance otherwise shift a limit cycle's phase by a
+    /// spike (OREGO at `rtol` 0.1–3e-2, `examples/tolerance_sweep.rs`).
+    ///
+    /// [`Weights::tighten_loose`]: crate::control::Weights::tighten_loose
+    fn tightens_loose_tolerances(&self) -> bool {
+        false
+    }
     /// Estimate `|h·λ|` of the dominant eigenvalue for the step just taken
     /// (before `accept`), for stiffness detection; `None` if the method has none.
     fn stiffness(&self, _h: f64, _x_new: &OVector<f64, D>) -> Option<f64> {

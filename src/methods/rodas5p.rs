@@ -244,6 +244,9 @@ impl<D: LuDim> Method<D> for Rodas5P<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    fn tightens_loose_tolerances(&self) -> bool {
+        true
+    }
     fn crossing_test(&self) -> bool {
         true
     }

@@ -222,7 +222,8 @@ fn dense_output_between_steps() {
     // Van der Pol μ = 10 at rtol 1e-8: scipy's BDF takes 588 steps with a largest error
     // 3.3e-4 at its step ends (phase error on the fast branches), as reckon's did with
     // scipy's controller (583 steps, 3.7e-4, 1787 f); aiming at 1/6 of the tolerance it
-    // takes 688 steps for 7.9e-5 in 1466 f. The dense output adds nothing to it
+    // takes 688 steps for 7.9e-5 in 1466 f; held tolerance-proportional below 1e-6, 788
+    // steps for 3.8e-5. The dense output adds nothing to it
     let f = van_der_pol(10.0);
     let p = Problem::new(&f, vector![2.0, 0.0], (0.0, 12.0));
     let sol = p
@@ -241,7 +242,7 @@ fn dense_output_between_steps() {
         mid = mid.max((sol.at(tm).unwrap() - r.at(tm).unwrap()).amax());
     }
     println!("VdP: ends {ends:.3e} mid {mid:.3e} steps {}", sol.t.len());
-    assert!((500..700).contains(&sol.t.len()), "{} steps", sol.t.len());
+    assert!((700..900).contains(&sol.t.len()), "{} steps", sol.t.len());
     assert!(ends < 2e-4 && mid < 1.5 * ends, "ends {ends}, midpoints {mid}");
 }
 

@@ -65,8 +65,9 @@ fn output_times_from_the_dense_polynomial() {
                 .map(|(t, x)| (x[0] - exact(*t)).abs())
                 .fold(0.0, f64::max);
         assert!(err < tol, "{name}: {err:e}");
-        // more than step ends: most output times fall inside steps
-        assert!(s.stats.accepted < times.len() as u64 * 10);
+        // a bounded step count for 41 output times (Bdf, tolerance-proportional at
+        // 1e-10, takes 492 steps for an error of 2.3e-11)
+        assert!(s.stats.accepted < times.len() as u64 * 15, "{name}: {:?}", s.stats);
         assert_eq!(s.kept_bytes(), times.len() * 16);
     }
     // the same as interpolating a run that kept its dense output, bit for bit
@@ -234,17 +235,19 @@ fn dense_true_interpolates_as_the_old_default() {
             ],
         ),
         (
+            // re-taken when Bdf became tolerance-proportional below rtol 1e-6 (its steps
+            // moved, 821 → 939; the dense output code did not)
             "bdf",
-            821,
+            939,
             [
-                0x3fff5865b10cad4f,
-                0xbfc175023a06b34b,
-                0x3ffcae64835c63aa,
-                0xbfc46fb05736731d,
-                0x3ff27f39ac0a2763,
-                0xbfdbb756e6a89f8d,
-                0xbff3325b9799e6d0,
-                0x3fd923ae9aa295d7,
+                0x3fff5865b10fd38a,
+                0xbfc175023b79d5da,
+                0x3ffcae6483679b8b,
+                0xbfc46fb0571c95c0,
+                0x3ff27f39af8c329e,
+                0xbfdbb756d4a384fd,
+                0xbff3325ba323d24c,
+                0x3fd923ae6fb16fb8,
             ],
         ),
         (

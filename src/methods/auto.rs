@@ -208,6 +208,9 @@ where
     h: f64,
     x_new: Option<OVector<f64, D>>,
     scale: Option<OVector<f64, D>>,
+    /// BDF's tolerance-proportionality factor at these tolerances: its steps are
+    /// estimated for `tol·factor`, DOPRI5's for `tol`.
+    bdf_factor: f64,
     controlled: usize,
     /// `h·λ` of the DOPRI5 step just attempted.
     h_lambda: Option<f64>,
@@ -234,6 +237,7 @@ where
             h: 0.0,
             x_new: None,
             scale: None,
+            bdf_factor: 1.0,
             controlled: 0,
             h_lambda: None,
             in_mode: 0,
@@ -304,7 +308,10 @@ where
         let len = self.history.t.len();
         (1..=self.implicit.max_order)
             .filter(|q| q + 1 < len && d[q + 1] > 0.0 && d[q + 1].is_finite())
-            .map(|q| (super::bdf::BIAS * self.implicit.error_constant(q) * d[q + 1]).powf(-1.0 / (q as f64 + 1.0)))
+            .map(|q| {
+                let e = super::bdf::BIAS * self.implicit.error_constant(q) * d[q + 1] / self.bdf_factor;
+                e.powf(-1.0 / (q as f64 + 1.0))
+            })
             .reduce(f64::max)
     }
 }
@@ -374,6 +381,7 @@ where
             Mode::Implicit => self.implicit.step(f, t, x, h, x_new, w, adaptive)?,
         };
         self.h = h;
+        self.bdf_factor = self.implicit.factor(w);
         self.controlled = w.controlled;
         let (xs, sc) = (
             self.x_new.get_or_insert_with(|| x_new.clone()),

@@ -217,12 +217,7 @@ where
     pub(crate) fn factor(&self, w: &Weights<D>) -> f64 {
         const PIVOT: f64 = 1e-6;
         let p = self.fixed_order.unwrap_or(self.max_order).max(1) as f64;
-        let r = w
-            .rtol
-            .iter()
-            .copied()
-            .filter(|r| *r > 0.0)
-            .fold(f64::INFINITY, f64::min);
+        let r = newton::min_positive_rtol(w);
         if r < PIVOT {
             (r / PIVOT).powf(1.0 / p).max((1e-14 / r).min(1.0))
         } else {
@@ -429,12 +424,7 @@ where
         let coef = self.coef;
         let factor = self.factor(w);
         let goal = Goal {
-            // 1 % of the proportional tolerance, but not below what rounding lets
-            // Newton see (10ε/rtol)
-            tol: self
-                .newton
-                .tol
-                .unwrap_or_else(|| (newton::bdf_tol(w) * factor).max(10.0 * f64::EPSILON / newton::min_rtol(w))),
+            tol: self.newton.tol.unwrap_or_else(|| newton::bdf_tol(w, factor)),
             max_iters: self.newton.max_iters,
         };
         let Some(s) = self.st.as_mut() else {

@@ -272,11 +272,6 @@ fn proportional<D: nalgebra::Dim>(w: &Weights<D>) -> f64
 where
     DefaultAllocator: Allocator<D>,
 {
-    let r = w
-        .rtol
-        .iter()
-        .copied()
-        .filter(|r| *r > 0.0)
-        .fold(f64::INFINITY, f64::min);
+    let r = newton::min_positive_rtol(w);
     if r.is_finite() { r.clamp(f64::EPSILON, 1.0) } else { 1.0 }
 }

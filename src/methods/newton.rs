@@ -296,13 +296,14 @@ where
     })
 }
 
-/// [`Bdf`](super::Bdf)'s Newton tolerance: [`BDF_TOL_FLOOR`] of the tolerance, or
-/// `10ε/rtol` where that is larger (`rtol` below 2.2e-13).
-pub(crate) fn bdf_tol<D: nalgebra::Dim>(w: &Weights<D>) -> f64
+/// [`Bdf`](super::Bdf)'s Newton tolerance: [`BDF_TOL_FLOOR`] of the tolerance its error
+/// is held to (`factor` ≤ 1 times the given one), but not below what rounding lets Newton
+/// see, `10ε/rtol`.
+pub(crate) fn bdf_tol<D: nalgebra::Dim>(w: &Weights<D>, factor: f64) -> f64
 where
     DefaultAllocator: Allocator<D>,
 {
-    (10.0 * f64::EPSILON / min_rtol(w)).max(BDF_TOL_FLOOR)
+    (BDF_TOL_FLOOR * factor).max(10.0 * f64::EPSILON / min_rtol(w))
 }
 
 /// Lowest Newton tolerance of [`Bdf`](super::Bdf) (0.01), in the tolerance-scaled norm
@@ -328,6 +329,19 @@ where
     DefaultAllocator: Allocator<D>,
 {
     w.rtol.iter().copied().fold(f64::INFINITY, f64::min).max(f64::EPSILON)
+}
+
+/// The smallest positive `rtol`, `∞` when every `rtol` is 0 (pure absolute control): the
+/// one the tolerance-proportionality factors of Bdf and ImplicitEuler read.
+pub(crate) fn min_positive_rtol<D: nalgebra::Dim>(w: &Weights<D>) -> f64
+where
+    DefaultAllocator: Allocator<D>,
+{
+    w.rtol
+        .iter()
+        .copied()
+        .filter(|r| *r > 0.0)
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// scipy's Newton tolerance `max(10ε/rtol, min(0.03, √rtol))` for the smallest `rtol`.

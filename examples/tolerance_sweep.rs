@@ -6,8 +6,9 @@
 //!
 //! `cargo run --release --example tolerance_sweep [problem] [method] [kmin] [kmax]`
 //!
-//! 2026-12-06: 0 wrong for k ≤ 40 everywhere and for every k on all but E5; on E5 from
-//! k = 41 Rodas5P reaches 8.0–9.0 digits, Bdf 9.8 and Auto 9.3–9.95 at k = 46–48.
+//! 2026-12-07: 0 wrong at every k on every problem (E5 with the Test Set's `y3' = f₂ − f₄`;
+//! expanded to `p₁ − p₂ − p₃ + p₄` its rounding capped every method at 8–9.9 digits).
+//! Implicit Euler ends in the typed step-limit error on E5 from k = 22 (rtol 3e-6).
 use nalgebra::SVector;
 use reckon::methods::{Auto, Bdf, ImplicitEuler, Rodas5P};
 use reckon::problems::*;

@@ -1,7 +1,7 @@
 //! A minimal hand-written Dormand–Prince 5(4) loop over fixed arrays, with the same
 //! controller (Hairer's PI, β = 0.04), initial step (HINIT) and end-point rule as
 //! reckon's, used as the speed and work baseline in `benches/rk45.rs` and checked for
-//! equal work in `tests/handwritten.rs`.
+//! equal work in `tests/it/handwritten.rs`.
 #![allow(dead_code, clippy::excessive_precision, clippy::needless_range_loop)]
 
 pub struct Run<const N: usize> {

@@ -12,7 +12,7 @@ use reckon::methods::{Dopri5, ImplicitEuler};
 use reckon::sensitivity::{self, SensitivityOptions, Wrt};
 use reckon::{Options, Problem, model};
 
-#[path = "../tests/common/drives.rs"]
+#[path = "../tests/it/common/drives.rs"]
 mod drives;
 use std::hint::black_box;
 use std::time::Duration;

@@ -1,10 +1,10 @@
-//! The sparse path on BRUSS 1-D (`tests/common/bruss.rs`, exact non-zeros by hand and the
+//! The sparse path on BRUSS 1-D (`tests/it/common/bruss.rs`, exact non-zeros by hand and the
 //! coloured num-dual evaluator): ImplicitEuler (20 fixed steps of 0.005) and Bdf (rtol =
 //! atol = 1e-6 on `[0, 0.1]`) at 10³, 10⁴ and 10⁵ states, one solve per iteration, and
 //! Bdf at 1 000 states sparse against dense (the hand-written dense Jacobian and faer's
 //! dense LU). 10⁶ states and peak memory: `examples/sparse_scaling.rs`.
 
-#[path = "../tests/common/bruss.rs"]
+#[path = "../tests/it/common/bruss.rs"]
 mod bruss;
 
 use bruss::{Bruss, Jac};

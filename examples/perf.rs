@@ -26,7 +26,7 @@
 //! Not a test (`cargo test` only builds it): `all` takes about 2 minutes on 2 cores.
 #![allow(clippy::excessive_precision)]
 
-#[path = "../tests/common/bruss.rs"]
+#[path = "../tests/it/common/bruss.rs"]
 mod bruss;
 #[path = "common/cpu.rs"]
 mod cpu;

@@ -26,7 +26,7 @@ use std::hint::black_box;
 
 #[path = "common/cpu.rs"]
 mod cpu;
-#[path = "../tests/common/drives.rs"]
+#[path = "../tests/it/common/drives.rs"]
 mod drives;
 
 fn main() {

@@ -1,5 +1,5 @@
 //! The sparse path of the implicit methods, measured on BRUSS 1-D (HNW ODE II §IV.1,
-//! `tests/common/bruss.rs`: the body of `problems::brusselator` as a hand-written model
+//! `tests/it/common/bruss.rs`: the body of `problems::brusselator` as a hand-written model
 //! whose `sparse_jacobian` is the coloured num-dual evaluator, `coloured`, or the exact
 //! non-zeros by hand, `hand`, a stand-in for a compiled one).
 //!
@@ -43,7 +43,7 @@
 mod rss;
 use rss::peak_rss_mib;
 
-#[path = "../tests/common/bruss.rs"]
+#[path = "../tests/it/common/bruss.rs"]
 mod bruss;
 
 use bruss::{Bruss, Jac};

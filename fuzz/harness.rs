@@ -1,5 +1,5 @@
 //! Bodies of the fuzz targets, shared by `fuzz/fuzz_targets/*.rs` (libFuzzer) and by
-//! `tests/fuzz_replay.rs` (which replays `fuzz/regressions/<target>/*` under `cargo test`).
+//! `crates/reckon-cli/tests/it/fuzz_replay.rs` (which replays `fuzz/regressions/<target>/*` under `cargo test`).
 //!
 //! Every entry point takes raw bytes and must never panic: a typed error (`Err`) from the
 //! library or the command is fine, a panic is a finding. Inputs are decoded with
@@ -58,7 +58,7 @@ fn write_file(path: &Path, bytes: &[u8]) {
 static TRACE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
 /// Print the decoded case of every input to stderr before running it (off by default;
-/// `tests/fuzz_replay.rs`'s `show` test turns it on).
+/// `crates/reckon-cli/tests/it/fuzz_replay.rs`'s `show` test turns it on).
 pub fn set_trace(on: bool) {
     TRACE.store(on, Ordering::Relaxed);
 }
@@ -72,7 +72,7 @@ fn trace(what: impl FnOnce() -> String) {
 fn run_cli(argv: Vec<OsString>) {
     trace(|| format!("argv: {argv:?}"));
     // Err is a typed failure (clap usage error or the command's one-line message): fine.
-    let _ = reckon::cli::run(argv);
+    let _ = reckon_cli::run(argv);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -268,7 +268,7 @@ fn list_of(u: &mut Unstructured, words: &[&str]) -> Result<String> {
 /// (later additions are left out so that the saved regression inputs replay exactly as
 /// they were recorded).
 const PROBLEMS: [&str; 12] = {
-    let n = reckon::cli::registry::NAMES;
+    let n = reckon_cli::registry::NAMES;
     [n[0], n[1], n[2], n[3], n[4], n[5], n[6], n[7], n[8], n[9], n[10], n[11]]
 };
 const STUDY_METHODS: [&str; 4] = ["euler", "implicit-euler", "rk45", "exact"];
@@ -584,7 +584,7 @@ fn real_shards() -> &'static [Vec<u8>] {
                 .into_iter()
                 .map(OsString::from)
                 .collect();
-                reckon::cli::run(argv).expect("a real shard");
+                reckon_cli::run(argv).expect("a real shard");
                 out.push(std::fs::read(&stats).expect("the shard's stats"));
             }
         }

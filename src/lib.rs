@@ -6,8 +6,6 @@
 pub mod guide {}
 
 pub mod calibration;
-#[doc(hidden)]
-pub mod cli;
 pub mod control;
 pub mod controls;
 pub mod ensemble;

@@ -246,7 +246,7 @@ pub fn brusselator(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
 /// [`brusselator_y0_book`]), but the reference values that are widely copied for BRUSS
 /// were computed with amplitude ½ (the shared `REFERENCES.md`, note 3); reckon follows
 /// them, so that its end state can be checked against published and independently
-/// computed numbers (`tests/sparse.rs` holds scipy Radau's at `t = 10`, see
+/// computed numbers (`tests/it/sparse.rs` holds scipy Radau's at `t = 10`, see
 /// `docs/references.md`).
 ///
 /// ```

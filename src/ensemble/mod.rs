@@ -467,7 +467,49 @@ impl Statistics {
 /// own stack and accumulators, and more threads than cores only add their cost.
 pub const MAX_THREADS: usize = 1024;
 
-/// How to run an ensemble: size, master seed, shard, threads, progress bar.
+/// A callback told `(done, total)` each time a member of the shard finishes, from the
+/// worker threads (so it must be `Send + Sync`); `done` counts up to `total`. The command
+/// draws its progress bar with one; a service can report to its client.
+///
+/// ```
+/// use reckon::ensemble::{Ensemble, Layout, Progress};
+/// use std::sync::atomic::{AtomicU64, Ordering};
+/// use std::sync::Arc;
+///
+/// let seen = Arc::new(AtomicU64::new(0));
+/// let s = seen.clone();
+/// let layout = Layout::new(vec![0.0], vec!["x".into()], 1).unwrap();
+/// let e = Ensemble::new(10, 1).on_progress(Progress::new(move |done, total| {
+///     assert!(done <= total && total == 10);
+///     s.fetch_max(done, Ordering::Relaxed);
+/// }));
+/// e.run(&layout, |_, rows| { rows[0] = 1.0; Ok(()) }).unwrap();
+/// assert_eq!(seen.load(Ordering::Relaxed), 10);
+/// ```
+#[derive(Clone)]
+pub struct Progress(std::sync::Arc<dyn Fn(u64, u64) + Send + Sync>);
+
+impl Progress {
+    /// Wrap `f(done, total)`.
+    pub fn new(f: impl Fn(u64, u64) + Send + Sync + 'static) -> Self {
+        Progress(std::sync::Arc::new(f))
+    }
+}
+
+impl std::fmt::Debug for Progress {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Progress(..)")
+    }
+}
+
+/// Two callbacks are equal when they are the same one.
+impl PartialEq for Progress {
+    fn eq(&self, other: &Self) -> bool {
+        std::sync::Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+/// How to run an ensemble: size, master seed, shard, threads, progress callback.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ensemble {
     /// Members in the whole ensemble.
@@ -478,8 +520,8 @@ pub struct Ensemble {
     pub shard: Shard,
     /// Worker threads (`None`: rayon's global pool, one per core).
     pub threads: Option<usize>,
-    /// Draw a progress bar on standard error when it is a terminal.
-    pub progress: bool,
+    /// Told about every finished member ([`Progress`]).
+    pub progress: Option<Progress>,
     /// Recorded in the statistics, compared by [`Statistics::merge`].
     pub job: String,
 }
@@ -492,7 +534,7 @@ impl Ensemble {
             seed,
             shard: Shard::ALL,
             threads: None,
-            progress: false,
+            progress: None,
             job: String::new(),
         }
     }
@@ -509,9 +551,9 @@ impl Ensemble {
         self
     }
 
-    /// Show a progress bar (on a terminal).
-    pub fn progress(mut self, on: bool) -> Self {
-        self.progress = on;
+    /// Report every finished member to `p`.
+    pub fn on_progress(mut self, p: Progress) -> Self {
+        self.progress = Some(p);
         self
     }
 
@@ -571,15 +613,11 @@ impl Ensemble {
         let width = layout.width();
         let size = width * layout.times.len();
         let first_failure = AtomicU64::new(u64::MAX);
-        let bar = if self.progress {
-            let b = indicatif::ProgressBar::new(count);
-            b.set_style(
-                indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} members  {elapsed} (eta {eta})")
-                    .expect("a valid template"),
-            );
-            b
-        } else {
-            indicatif::ProgressBar::hidden()
+        let finished = AtomicU64::new(0);
+        let tick = || {
+            if let Some(p) = &self.progress {
+                (p.0)(finished.fetch_add(1, Ordering::Relaxed) + 1, count);
+            }
         };
         struct Acc {
             snapshots: Vec<Snapshot>,
@@ -629,7 +667,7 @@ impl Ensemble {
                         }
                     }
                 }
-                bar.inc(1);
+                tick();
                 acc
             })
             .reduce(fresh, |mut a, b| {
@@ -644,7 +682,6 @@ impl Ensemble {
                 }
                 a
             });
-        bar.finish_and_clear();
         match done.failure {
             Some((index, seed, e)) => Err(Error::EnsembleMember {
                 index,

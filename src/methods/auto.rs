@@ -322,7 +322,7 @@ where
 {
     /// In both modes: at a loose tolerance DOPRI5 too steps Robertson's and HIRES's
     /// concentrations past zero, where the field points back, and the run then
-    /// underflows (`rtol` 0.1, `tests/fail_safe.rs`).
+    /// underflows (`rtol` 0.1, `tests/it/fail_safe.rs`).
     fn tightens_loose_tolerances(&self) -> bool {
         true
     }

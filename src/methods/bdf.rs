@@ -117,7 +117,7 @@ impl Coefficients {
 /// (scipy's BDF: 4.4, 4.2), and every Test Set problem up by 0.4–1.4 digits at 1e-6 and
 /// 1e-10, with 14–33 % more steps but, together with the Newton floor above, 1–24 % fewer
 /// `f` evaluations (fewer Newton iterations, almost no rejections), 8–58 % fewer LUs and
-/// 45–95 % fewer Jacobians (`tests/bdf.rs`).
+/// 45–95 % fewer Jacobians (`tests/it/bdf.rs`).
 ///
 /// **Dense output** is the interpolating polynomial of the differences, exact at the
 /// last `k + 1` solution values. A jump in the inputs (a breakpoint) restarts at order 1.

@@ -144,7 +144,7 @@ pub fn flow(wheelbase: f64) -> impl Fn(f64, &Vector4<f64>, &[f64], f64) -> Vecto
 ///
 /// **Order 2**, not exact: `θ₁ − θ₀ = (v/L)∫tan γ(s) ds` and the midpoint rule integrates
 /// it with local error `(v/L)·h³/24·(tan γ)''`, so the global error is `O(h²)` (measured
-/// order 2.00 by least squares over h = 0.1 … 0.00625 against RK45, `tests/vehicles.rs`).
+/// order 2.00 by least squares over h = 0.1 … 0.00625 against RK45, `tests/it/vehicles.rs`).
 /// With one step per 2-s control interval on the report's scenario it ends about 1.4 m
 /// from the true pose. It equals [`flow`] when `ω = 0`. Use it where a cheap
 /// approximation on short steps is enough; [`flow`] is the exact one.

@@ -92,13 +92,26 @@ pub struct Names {
 }
 
 impl Names {
-    pub(crate) fn state(&self, i: usize) -> String {
+    /// State `i`'s name: `states[i]`, or `xᵢ` when there is none.
+    ///
+    /// ```
+    /// use reckon::symbolic::Names;
+    /// let n = Names { states: vec!["v".into()], ..Default::default() };
+    /// assert_eq!((n.state(0), n.state(2)), ("v".to_string(), "x₂".to_string()));
+    /// ```
+    pub fn state(&self, i: usize) -> String {
         self.states
             .get(i)
             .cloned()
             .unwrap_or_else(|| format!("x{}", print::subscript(i)))
     }
-    pub(crate) fn input(&self, k: usize) -> String {
+    /// Input `k`'s name: `inputs[k]`, or `uₖ` when there is none.
+    ///
+    /// ```
+    /// use reckon::symbolic::Names;
+    /// assert_eq!(Names::default().input(1), "u₁");
+    /// ```
+    pub fn input(&self, k: usize) -> String {
         self.inputs
             .get(k)
             .cloned()

@@ -249,7 +249,7 @@ where
         let pd = constants::<M>(md, &self.params);
         let r = (self.g)(t, &xd, u, &pd.as_slice()[..self.params.len()]);
         // row i of J is the first n derivative parts of f_i: column-major as write_eps writes
-        crate::sensitivity::write_eps(&r, n, n, jac.as_mut_slice());
+        crate::system::write_eps(&r, n, n, jac.as_mut_slice());
     }
     fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
         self.dt.time_derivative(t, x, u, dfdt)
@@ -326,7 +326,7 @@ where
             None => DualVec64::new(0.0, Derivative::none()),
         });
         let r = (self.g)(t, &xd, u, &pd.as_slice()[..np]);
-        crate::sensitivity::write_eps(&r, n, m, ds);
+        crate::system::write_eps(&r, n, m, ds);
     }
 }
 
@@ -415,7 +415,7 @@ where
             DualVec64::new(p[j], Derivative::derivative_generic(pw, U1, j))
         });
         let r = (self.body)(t, &xd, u, pd.as_slice());
-        crate::sensitivity::write_eps(&r, n, np, ds);
+        crate::system::write_eps(&r, n, np, ds);
         true
     }
 }

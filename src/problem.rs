@@ -1,12 +1,7 @@
 //! An initial-value problem: model, initial state, span, held inputs, events.
 
 use crate::controls::Controls;
-use crate::error::Result;
 use crate::events::Event;
-use crate::integrator::Integrator;
-use crate::methods::Method;
-use crate::options::Options;
-use crate::solution::Solution;
 use crate::system::System;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -90,13 +85,5 @@ where
     /// Whether any event is watched.
     pub(crate) fn has_events(&self) -> bool {
         !self.events.is_empty()
-    }
-    /// A stepper over this problem: call [`Integrator::step`] or iterate.
-    pub fn integrator<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Integrator<'_, 'a, D, S, M>> {
-        Integrator::new(self, method, opts)
-    }
-    /// Integrate from `t0` to `t_end` and return every step.
-    pub fn solve<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Solution<D>> {
-        self.integrator(method, opts)?.solve()
     }
 }

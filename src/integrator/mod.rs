@@ -967,6 +967,22 @@ pub(crate) fn brief(v: f64) -> String {
     crate::error::Brief(v).to_string()
 }
 
+/// `Problem::integrator` and `Problem::solve` live with the driver, so that the problem
+/// (data) depends on nothing that runs it.
+impl<'a, D: Dim, S: System<D>> Problem<'a, D, S>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// A stepper over this problem: call [`Integrator::step`] or iterate.
+    pub fn integrator<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Integrator<'_, 'a, D, S, M>> {
+        Integrator::new(self, method, opts)
+    }
+    /// Integrate from `t0` to `t_end` and return every step.
+    pub fn solve<M: Method<D>>(&self, method: M, opts: &Options) -> Result<Solution<D>> {
+        self.integrator(method, opts)?.solve()
+    }
+}
+
 /// How near a grid point (relative to the fixed step `h`) a stop counts as on it: the
 /// step to the stop is then the step to the grid point, and the grid moves on.
 pub(super) const GRID_TOL: f64 = 1e-10;

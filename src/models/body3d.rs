@@ -59,6 +59,7 @@ pub fn model() -> impl crate::DualSystem<Const<3>> + Clone {
 /// let p = flow(0.0, &vector![1.0, 1.0, -5.0], &[0.0, 0.0, 0.0, 2.0, 0.0, 0.0], 1.5);
 /// assert_eq!(p, vector![4.0, 1.0, -5.0]);
 /// ```
+#[inline]
 pub fn flow(_t: f64, p: &Vector3<f64>, u: &[f64], h: f64) -> Vector3<f64> {
     let g = |i: usize| u.get(i).copied().unwrap_or(f64::NAN);
     p + rotation(g(0), g(1), g(2)) * Vector3::new(g(3), g(4), g(5)) * h

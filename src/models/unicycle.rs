@@ -37,6 +37,7 @@ pub fn sinc(z: f64) -> f64 {
 /// let x = flow(0.0, &vector![0.0, 0.0, 0.0], &[1.0, 1.0], std::f64::consts::FRAC_PI_2);
 /// assert!((x - vector![1.0, 1.0, std::f64::consts::FRAC_PI_2]).norm() < 1e-15);
 /// ```
+#[inline]
 pub fn flow(_t: f64, x: &Vector3<f64>, u: &[f64], h: f64) -> Vector3<f64> {
     // missing inputs give NaN, which the driver reports as a non-finite state
     let v = u.first().copied().unwrap_or(f64::NAN);

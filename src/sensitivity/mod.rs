@@ -110,32 +110,6 @@ mod direct;
 /// are not checked: their accuracy is the caller's choice.
 pub const UNRESOLVED: f64 = 0.1;
 
-/// The derivative parts of `r` (`n` duals with `m` directions) into `ds` column-major;
-/// NaN for a result of the wrong length (the driver reports it).
-pub(crate) fn write_eps<D: Dim, M: Dim>(r: &OVector<DualVec64<M>, D>, n: usize, m: usize, ds: &mut [f64])
-where
-    DefaultAllocator: Allocator<D> + Allocator<M>,
-{
-    if r.len() != n {
-        ds.fill(f64::NAN);
-        return;
-    }
-    for i in 0..n {
-        match &r[i].eps.0 {
-            Some(e) => {
-                for k in 0..m {
-                    ds[i + k * n] = e[k];
-                }
-            }
-            None => {
-                for k in 0..m {
-                    ds[i + k * n] = 0.0;
-                }
-            }
-        }
-    }
-}
-
 /// How [`solve`] treats the sensitivities.
 ///
 /// ```
@@ -338,7 +312,7 @@ where
         );
         let o = out.as_mut_slice();
         o[..n].copy_from_slice(x1.as_slice());
-        write_eps(&y, n, n, &mut o[n..]);
+        crate::system::write_eps(&y, n, n, &mut o[n..]);
     }
 }
 

@@ -9,10 +9,8 @@
 //! ([`colour::Coloured`] over its dual-number body).
 
 pub mod colour;
-mod eval;
 mod lu;
 
-pub(crate) use eval::Slot;
 pub use lu::SparseLu;
 
 /// [`LinearSolver::Auto`](crate::options::LinearSolver::Auto) takes the sparse path from

@@ -2,10 +2,10 @@
 //! once per run (dense or sparse), the evaluator the model gave, and its counted and
 //! checked calls.
 
-use super::{AUTO_MAX_DENSITY, AUTO_MIN_STATES, Pattern, SparseJacobian};
+use super::{Eval, System};
 use crate::error::{Error, Quantity, Result};
 use crate::options::LinearSolver;
-use crate::system::{Eval, System};
+use crate::sparse::{AUTO_MAX_DENSITY, AUTO_MIN_STATES, Pattern, SparseJacobian};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 

@@ -11,6 +11,8 @@ use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U1};
 use num_dual::DualVec64;
 use std::marker::PhantomData;
 
+mod sparse_eval;
+
 /// A right-hand side `x' = f(t, x, u)` with its Jacobian `J = ∂f/∂x`.
 ///
 /// Most users never implement this by hand: [`model!`](crate::model) turns a
@@ -459,7 +461,7 @@ where
             )
         });
         let out = self.rhs_dual(t, &xd, u);
-        crate::sensitivity::write_eps(&out, n, m, ds);
+        crate::system::write_eps(&out, n, m, ds);
     }
 }
 
@@ -995,7 +997,7 @@ where
     /// finds the NaN left in its place.
     pub(crate) fault: Option<Error>,
     /// The linear-algebra choice and the model's sparse Jacobian (`crate::sparse`).
-    pub(crate) sparse: crate::sparse::Slot<'a>,
+    pub(crate) sparse: sparse_eval::Slot<'a>,
     _dim: PhantomData<D>,
 }
 
@@ -1146,7 +1148,7 @@ fn length_error(got: usize, n: usize, t: f64) -> Error {
         "model",
         format!(
             "f returned {got} components for a state of {n} (at t = {})",
-            crate::integrator::brief(t)
+            crate::error::Brief(t)
         ),
     )
 }
@@ -1159,4 +1161,30 @@ pub(crate) fn finite(v: &[f64], t: f64, quantity: Quantity) -> Result<()> {
     }
     let component = v.iter().position(|a| !a.is_finite()).unwrap_or(0);
     Err(Error::NonFinite { t, quantity, component })
+}
+
+/// The derivative parts of `r` (`n` duals with `m` directions) into `ds` column-major;
+/// NaN for a result of the wrong length (the driver reports it).
+pub(crate) fn write_eps<D: Dim, M: Dim>(r: &OVector<DualVec64<M>, D>, n: usize, m: usize, ds: &mut [f64])
+where
+    DefaultAllocator: Allocator<D> + Allocator<M>,
+{
+    if r.len() != n {
+        ds.fill(f64::NAN);
+        return;
+    }
+    for i in 0..n {
+        match &r[i].eps.0 {
+            Some(e) => {
+                for k in 0..m {
+                    ds[i + k * n] = e[k];
+                }
+            }
+            None => {
+                for k in 0..m {
+                    ds[i + k * n] = 0.0;
+                }
+            }
+        }
+    }
 }

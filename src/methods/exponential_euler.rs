@@ -247,7 +247,7 @@ where
     fn dense_len(&self) -> usize {
         4
     }
-    /// Cubic Hermite: `c₀ = x₀, c₁ = h f₀, c₂ = 3Δ − 2h f₀ − h f₁, c₃ = −2Δ + h f₀ + h f₁`, `Δ = x₁ − x₀`.
+    /// Cubic Hermite (`methods::dense::cubic_hermite`) from `f` at both ends.
     fn dense<S: System<D>>(
         &mut self,
         f: &mut Eval<'_, D, S>,
@@ -266,14 +266,7 @@ where
             Some(s) if s.f_new_valid && s.t_new == t + h && s.x_new == *x_new => c23[1].copy_from(&s.f_new),
             _ => f.rhs(t + h, x_new, &mut c23[1])?,
         }
-        for i in 0..x.len() {
-            let d = x_new[i] - x[i];
-            let (f0, f1) = (h * c01[1][i], h * c23[1][i]);
-            c01[0][i] = x[i];
-            c01[1][i] = f0;
-            c23[0][i] = 3.0 * d - 2.0 * f0 - f1;
-            c23[1][i] = -2.0 * d + f0 + f1;
-        }
+        super::dense::cubic_hermite(h, x, x_new, c);
         Ok(())
     }
 }

@@ -10,6 +10,7 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 
 pub mod auto;
 pub mod bdf;
+mod dense;
 pub mod dopri5;
 pub mod exact;
 pub mod explicit_euler;

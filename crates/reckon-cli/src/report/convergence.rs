@@ -3,7 +3,6 @@
 use super::*;
 
 pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
-    // convergence study
     r.section("Convergence study", "Observed order by least squares on log–log over fixed step sizes, against the exact solution: the unicycle arc with held inputs (nonlinear), and a damped spring driven by a held force (linear, x' = Ax + Bu), whose exact solution is the zero-order-hold flow. Exponential Euler integrates the model linearised at each step exactly, so it is second order on the unicycle and exact to rounding on the linear model at every step size.");
     let p = lookup("unicycle")?;
     let mut plot = Plot::new(

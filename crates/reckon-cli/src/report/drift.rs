@@ -3,9 +3,8 @@
 use super::*;
 
 pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
-    // drift against distance
     r.section("Odometry drift against distance", "Straight runs of 1, 2, 5 and 10 m: a 1° heading error gives 1.745% lateral drift (0.1745 m after 10 m); a 0.1% wheel-diameter mismatch curves the path, so its lateral error grows with the square of the distance; slip and pulse noise (seeded) add a random part.");
-    let robot = DiffDrive::new(0.1, 0.5, 2048.0)?; // the robot of the UMBmark section
+    let robot = square_robot()?;
     let ds = [1.0, 2.0, 5.0, 10.0];
     let heading = reckon::reckoning::drift::heading_error_drift(1f64.to_radians(), &ds);
     let sys_err = EncoderErrors {

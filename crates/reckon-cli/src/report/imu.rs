@@ -3,7 +3,6 @@
 use super::*;
 
 pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
-    // IMU drift
     let rows = imu_bias_drift(0.01, 1e-3, &(1..=12).map(|k| k as f64 * 5.0).collect::<Vec<_>>(), 0.01)?;
     r.section("IMU drift", "A level IMU at rest with an uncorrected accelerometer bias b_a = 0.01 m/s² (error ½·b_a·t²) or gyro bias b_g = 1e-3 rad/s (the tilt b_g·t leaks gravity: g·b_g·t³/6), dead-reckoned by strapdown with exact rotations.");
     let plot = Plot::new(

@@ -124,6 +124,12 @@ fn ellipse(c: (f64, f64), a: f64, b: f64, ang: f64) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// The differential-drive robot of the UMBmark and drift sections: wheels of 0.1 m,
+/// 0.5 m apart, 2048 pulses per revolution.
+fn square_robot() -> Res<DiffDrive> {
+    Ok(DiffDrive::new(0.1, 0.5, 2048.0)?)
+}
+
 /// A file-name-safe version of a title: ASCII letters and digits, words joined by '-'.
 fn slug(s: &str) -> String {
     let mut out = String::new();

@@ -3,7 +3,6 @@
 use super::*;
 
 pub(super) fn section(r: &mut Report, dir: &Path, fast: bool) -> Res {
-    // stiffness study
     r.section("Stiffness and step size", "Van der Pol with μ = 1000: RK45's step is pinned by its stability boundary (|hλ| ≤ 3.3 on the real axis) on the slow branches, where accuracy alone would allow large steps; the stiff methods (implicit Euler, BDF, Rodas5P) are stable at any step and theirs follows the solution; Auto runs RK45 until DOPRI5's stiffness test fires, BDF on the slow branches, and RK45 again in the fast jumps. The stability regions and the explicit-Euler threshold 2/|λ|, located by actual runs, complete the picture.");
     let vdp = lookup("van-der-pol")?;
     let hist = vdp.histories(1e-4, 1e-7, if fast { 20_000 } else { 400_000 });

@@ -3,7 +3,6 @@
 use super::*;
 
 pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
-    // SLAM
     let sc = slam::synthetic(42);
     let out = slam::run(&sc)?;
     r.section("Underwater landmark SLAM (synthetic survey)", "Dead reckoning from Euler angles and body velocities, depth every sample, side-scan sonar ranges at detection times; one Kalman filter over robot position and six landmark positions. Ellipses are the 90% confidence regions (a = √(−2 ln 0.1) = 2.146).");

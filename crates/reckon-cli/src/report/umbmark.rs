@@ -3,8 +3,7 @@
 use super::*;
 
 pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
-    // UMBmark
-    let robot = DiffDrive::new(0.1, 0.5, 2048.0)?;
+    let robot = square_robot()?;
     let e = EncoderErrors {
         left_scale: 1.002,
         wheelbase_scale: 1.01,

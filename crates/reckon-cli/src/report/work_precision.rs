@@ -3,7 +3,6 @@
 use super::*;
 
 pub(super) fn section(r: &mut Report, dir: &Path, fast: bool) -> Res {
-    // work–precision
     r.section("Work–precision", "Error at the end of the Arenstorf orbit against rhs evaluations and wall time, RK45 over tolerances 1e-4…1e-10 and implicit Euler over 1e-2…1e-4: its error stays of the orbit's size (1.4–2.3) up to 0.46 million rhs evaluations, since a first-order method cannot follow the close approaches to the primaries, while the fifth-order method reaches small errors at a fraction of that work: for a smooth non-stiff problem it wins by orders of magnitude.");
     let ar = lookup("arenstorf")?;
     let tols: Vec<f64> = if fast {

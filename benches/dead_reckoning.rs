@@ -4,8 +4,8 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Vector3, vector};
-use reckon::methods::{Exact, ExplicitEuler};
-use reckon::models::{bicycle, unicycle};
+use reckon::methods::{Euler, Exact};
+use reckon::vehicles::{bicycle, unicycle};
 use reckon::{Controls, Options, Problem, Save, System};
 use std::hint::black_box;
 use std::time::Duration;
@@ -87,7 +87,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| black_box(bare(euler, &t, &u).len()))
     });
     g.bench_function("unicycle/solve-explicit-euler", |b| {
-        b.iter(|| black_box(uni.solve(ExplicitEuler, &Options::default().fixed(DT)).unwrap().t.len()))
+        b.iter(|| black_box(uni.solve(Euler, &Options::default().fixed(DT)).unwrap().t.len()))
     });
     g.finish();
 }

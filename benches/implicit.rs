@@ -4,7 +4,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Const, Matrix3, Vector3, vector};
 use reckon::methods::ImplicitEuler;
-use reckon::problems::robertson;
+use reckon::studies::problems::robertson;
 use reckon::{Options, Problem, System};
 use std::hint::black_box;
 use std::time::Duration;

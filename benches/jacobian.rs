@@ -7,9 +7,9 @@
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector, vector};
-use reckon::models::{carlike, unicycle};
-use reckon::problems::{brusselator, brusselator_y0, robertson};
-use reckon::sparse::SparseJacobian;
+use reckon::jacobian::SparseJacobian;
+use reckon::studies::problems::{brusselator, brusselator_y0, robertson};
+use reckon::vehicles::{carlike, unicycle};
 use reckon::{System, symbolic};
 use std::hint::black_box;
 use std::time::Duration;

@@ -8,7 +8,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::vector;
 use reckon::calibration::lsq::diff_drive;
-use reckon::methods::{Dopri5, ImplicitEuler};
+use reckon::methods::{ImplicitEuler, Rk45};
 use reckon::sensitivity::{self, SensitivityOptions, Wrt};
 use reckon::{Options, Problem, model};
 
@@ -65,8 +65,8 @@ fn bench(c: &mut Criterion) {
             };
         }
         if name == "rk45" {
-            pair!("diff-drive", p, Dopri5::default());
-            pair!("van-der-pol", q, Dopri5::default());
+            pair!("diff-drive", p, Rk45::default());
+            pair!("van-der-pol", q, Rk45::default());
         } else {
             pair!("diff-drive", p, ImplicitEuler::default());
             pair!("van-der-pol", q, ImplicitEuler::default());

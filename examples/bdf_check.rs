@@ -1,6 +1,6 @@
 use nalgebra::vector;
 use reckon::methods::{Bdf, ImplicitEuler};
-use reckon::problems::*;
+use reckon::studies::problems::*;
 use reckon::{Options, Problem};
 fn main() {
     for rtol in [1e-6, 1e-10] {

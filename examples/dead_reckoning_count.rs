@@ -19,8 +19,8 @@
 //! `cargo run --release --example dead_reckoning_count -- euler time 1000000 15`.
 
 use nalgebra::{Vector3, vector};
-use reckon::methods::{Exact, ExplicitEuler};
-use reckon::models::{bicycle, unicycle};
+use reckon::methods::{Euler, Exact};
+use reckon::vehicles::{bicycle, unicycle};
 use reckon::{Controls, Options, Problem, System};
 use std::hint::black_box;
 
@@ -87,12 +87,7 @@ fn main() {
                 .last()
                 .1
         }
-        ("euler", "solve") => {
-            *uni.solve(ExplicitEuler, &Options::default().fixed(DT))
-                .unwrap()
-                .last()
-                .1
-        }
+        ("euler", "solve") => *uni.solve(Euler, &Options::default().fixed(DT)).unwrap().last().1,
         _ => panic!("usage: dead_reckoning_count unicycle|bicycle|euler bare|solve [n]"),
     };
     if who == "time" {

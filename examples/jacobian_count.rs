@@ -2,8 +2,8 @@
 //! `valgrind --tool=callgrind target/release/examples/jacobian_count <model> <numdual|symbolic|interpreted> <reps>`
 //! with model `unicycle`, `carlike` or `robertson`; per evaluation = (N(reps) − N(1))/(reps − 1).
 use nalgebra::{SMatrix, SVector, vector};
-use reckon::models::{carlike, unicycle};
-use reckon::problems::robertson;
+use reckon::studies::problems::robertson;
+use reckon::vehicles::{carlike, unicycle};
 use reckon::{System, symbolic};
 use std::hint::black_box;
 

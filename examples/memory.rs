@@ -15,8 +15,8 @@
 mod rss;
 use rss::peak_rss_mib;
 
-use reckon::methods::Dopri5;
-use reckon::problems::{brusselator, brusselator_y0};
+use reckon::methods::Rk45;
+use reckon::studies::problems::{brusselator, brusselator_y0};
 use reckon::{Options, Problem, Save};
 
 fn main() {
@@ -36,7 +36,7 @@ fn main() {
     } else {
         Options::default().rtol(1e-4).atol(1e-4).dense(dense).save(save)
     };
-    let s = p.solve(Dopri5::default(), &o).unwrap();
+    let s = p.solve(Rk45::default(), &o).unwrap();
     println!(
         "{mode}: {} steps, {} kept, {:.1} MiB kept, peak RSS {:.1} MiB",
         s.stats.accepted,

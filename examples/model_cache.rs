@@ -13,8 +13,8 @@
 //! cache, paid by kept and rebuilt models alike) 0.68–1.32 ms.
 
 use reckon::methods::Bdf;
-use reckon::options::{LinearSolver, Save};
-use reckon::problems::{brusselator, brusselator_y0};
+use reckon::studies::problems::{brusselator, brusselator_y0};
+use reckon::{LinearSolver, Save};
 use reckon::{Options, Problem, symbolic};
 
 /// Process CPU time in seconds (all threads).

@@ -4,7 +4,7 @@
 //! and of every ratio (each round's ratio is of two batches timed next to each other).
 //!
 //! `cargo run --release --example perf -- SECTION [ROUNDS]`, SECTION one of
-//! - `rk45` (21 rounds): reckon's `Dopri5` against the hand-written loop
+//! - `rk45` (21 rounds): reckon's `Rk45` against the hand-written loop
 //!   (`benches/handwritten.rs`) and `ode_solvers` 0.6 on Lorenz, Arenstorf and Van der
 //!   Pol μ = 1, tol 1e-4 … 1e-10, the same model code (as `benches/rk45.rs`);
 //! - `stiff` (15 rounds): `Bdf`, `Rodas5P` (and `ImplicitEuler` where a solve takes
@@ -37,8 +37,8 @@ mod stiff;
 
 use cpu::*;
 use nalgebra::{Const, DMatrix, DVector, Matrix3, SMatrix, SVector, Vector3, vector};
-use reckon::methods::{Bdf, Dopri5, ImplicitEuler, Rodas5P};
-use reckon::options::{LinearSolver, Save};
+use reckon::methods::{Bdf, ImplicitEuler, Rk45, Rodas5P};
+use reckon::{LinearSolver, Save};
 use reckon::{Options, Problem, System, symbolic};
 use std::hint::black_box;
 
@@ -124,13 +124,13 @@ fn rk45_problem<const N: usize, H: Fn(f64, &[f64; N]) -> [f64; N] + Copy>(
     let p = Problem::new(&sys, SVector::from(x0), (0.0, t_end));
     for tol in [1e-4, 1e-6, 1e-8, 1e-10] {
         let opts = Options::default().rtol(tol).atol(tol).dense(false);
-        let r = p.solve(Dopri5::default(), &opts).unwrap();
+        let r = p.solve(Rk45::default(), &opts).unwrap();
         let h = handwritten::dopri5(hand, 0.0, t_end, x0, tol);
         let (_, os_evals) = os_run::run(hand, x0, t_end, tol);
         let mut cs = vec![
             Contender::new("reckon", |n| {
                 for _ in 0..n {
-                    black_box(p.solve(Dopri5::default(), black_box(&opts)).unwrap().stats.accepted);
+                    black_box(p.solve(Rk45::default(), black_box(&opts)).unwrap().stats.accepted);
                 }
             }),
             Contender::new("hand", |n| {
@@ -168,7 +168,7 @@ fn rk45(rounds: usize) {
     );
     println!("|---|---|---|---|---|---|---|---|");
     let mut cells = Vec::new();
-    use reckon::problems::*;
+    use reckon::studies::problems::*;
     rk45_problem(
         "Lorenz",
         lorenz(),
@@ -479,7 +479,7 @@ fn bruss_opts(rtol: f64, linear: LinearSolver) -> Options {
 
 fn sparse(rounds: usize) {
     use bruss::{Bruss, Jac};
-    use reckon::problems::{brusselator, brusselator_y0};
+    use reckon::studies::problems::{brusselator, brusselator_y0};
     println!("\n## sparse: BRUSS 1-D, 1 000 states, [0, 10], 5 digits; {rounds} rounds, CPU time per solve\n");
     let y0 = brusselator_y0(N);
     let hand = Bruss::new(N, Jac::Hand);
@@ -703,9 +703,9 @@ fn jac_small<const M: usize>(name: &str, f: &impl System<Const<M>>, x: SVector<f
 }
 
 fn jacobian(rounds: usize) {
-    use reckon::models::{carlike, unicycle};
-    use reckon::problems::{brusselator, brusselator_y0, robertson};
-    use reckon::sparse::SparseJacobian;
+    use reckon::jacobian::SparseJacobian;
+    use reckon::studies::problems::{brusselator, brusselator_y0, robertson};
+    use reckon::vehicles::{carlike, unicycle};
     println!("\n## jacobian: {rounds} rounds, CPU time per evaluation, median (min–max)\n");
     println!("| model | num-dual | symbolic | symbolic ÷ num-dual | interpreted |");
     println!("|---|---|---|---|---|");
@@ -812,7 +812,7 @@ impl System<Const<3>> for AnalyticRobertson {
 }
 
 fn small(rounds: usize) {
-    use reckon::problems::*;
+    use reckon::studies::problems::*;
     println!("\n## small: {rounds} rounds, CPU time, median (min–max)\n");
     // the model call
     let (ar, lo) = (arenstorf(), lorenz());

@@ -18,7 +18,7 @@
 //!   hand-written dense J), Rodas5P sparse, and diffsol 0.18's BDF with its faer sparse LU.
 //! - `setup STATES`: the time to trace and compile `problems::brusselator`'s body alone.
 //! - `crossover`: one factorisation + solve of `I − c·J`, faer dense LU vs
-//!   [`SparseLu`](reckon::sparse::SparseLu), BRUSS pattern by size and random patterns by
+//!   [`SparseLu`](reckon::linalg::SparseLu), BRUSS pattern by size and random patterns by
 //!   density (for `AUTO_MIN_STATES`, `AUTO_MAX_DENSITY`).
 //!
 //! Measured (2 cores, 2 Dec 2026, with native compiled Jacobians): `scaling`, 10³ → 10⁶
@@ -49,10 +49,10 @@ mod bruss;
 use bruss::{Bruss, Jac};
 use nalgebra::{DMatrix, DVector};
 use reckon::methods::{Bdf, ImplicitEuler, Rodas5P};
-use reckon::options::{LinearSolver, Save};
-use reckon::problems::{brusselator, brusselator_y0};
-use reckon::sparse::{Pattern, SparseLu};
+use reckon::studies::problems::{brusselator, brusselator_y0};
+use reckon::{LinearSolver, Save};
 use reckon::{Options, Problem};
+use reckon::{jacobian::Pattern, linalg::SparseLu};
 use std::time::Instant;
 
 fn jac(s: &str) -> Jac {

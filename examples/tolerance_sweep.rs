@@ -11,7 +11,7 @@
 //! Implicit Euler ends in the typed step-limit error on E5 from k = 22 (rtol 3e-6).
 use nalgebra::SVector;
 use reckon::methods::{Auto, Bdf, ImplicitEuler, Rodas5P};
-use reckon::problems::*;
+use reckon::studies::problems::*;
 use reckon::{DualSystem, Options, Problem};
 
 fn mescd<const N: usize>(y: &SVector<f64, N>, r: &[f64; N], atol: &[f64; N], rtol: f64) -> f64 {

@@ -3,8 +3,8 @@
 
 #[path = "common/rss.rs"]
 mod rss;
-use reckon::problems::brusselator;
-use reckon::sparse::SparseJacobian;
+use reckon::jacobian::SparseJacobian;
+use reckon::studies::problems::brusselator;
 use reckon::symbolic;
 use rss::peak_rss_mib;
 use std::time::Instant;
@@ -19,7 +19,7 @@ fn main() {
     let t2 = Instant::now();
     let nodes = tr.nodes();
     drop(tr);
-    let x = reckon::problems::brusselator_y0(n);
+    let x = reckon::studies::problems::brusselator_y0(n);
     let mut v = vec![0.0; jac.pattern().nnz()];
     let t3 = Instant::now();
     jac.eval(0.0, x.as_slice(), &[], &mut v).unwrap();

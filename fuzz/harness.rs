@@ -7,15 +7,14 @@
 #![allow(dead_code)]
 
 use arbitrary::{Result, Unstructured};
-use reckon::control::Tolerance;
-use reckon::methods::{
-    Auto, Bdf, Dopri5, Exact, ExplicitEuler, ExponentialEuler, Flow, ImplicitEuler, Method, NewtonOptions, Rodas5P,
-};
+use reckon::methods::{Auto, Bdf, Euler, Exact, ExponentialEuler, ImplicitEuler, Method, NewtonOptions, Rk45, Rodas5P};
+use reckon::model::Flow;
 use reckon::nalgebra::allocator::Allocator;
 use reckon::nalgebra::{DVector, DefaultAllocator, Dim, Dyn, OVector, SVector, U1, Vector1, Vector2};
-use reckon::options::{LinearSolver, Save};
+use reckon::problem::options::Tolerance;
 use reckon::sensitivity::{self, Sensitivities, SensitivityOptions, Wrt};
 use reckon::{Controls, Direction, DualSystem, Event, Options, Problem, StepSize, model};
+use reckon::{LinearSolver, Save};
 use std::cell::Cell;
 use std::ffi::OsString;
 use std::path::{Path, PathBuf};
@@ -1067,7 +1066,7 @@ where
     X: FnOnce(&Problem<'_, D, S>, &Options, &SensitivityOptions),
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
     ImplicitEuler<D>: Method<D>,
-    Dopri5<D>: Method<D>,
+    Rk45<D>: Method<D>,
     Bdf<D>: Method<D>,
     Rodas5P<D>: Method<D>,
     Auto<D>: Method<D>,
@@ -1131,13 +1130,13 @@ where
     F: Flow<D>,
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
     ImplicitEuler<D>: Method<D>,
-    Dopri5<D>: Method<D>,
+    Rk45<D>: Method<D>,
 {
     match method {
-        0 => drive(p, ExplicitEuler, opts, plan),
+        0 => drive(p, Euler, opts, plan),
         1 => drive(p, ImplicitEuler::default(), opts, plan),
         2 => drive(p, ImplicitEuler::new(plan.newton), opts, plan),
-        3 => drive(p, Dopri5::default(), opts, plan),
+        3 => drive(p, Rk45::default(), opts, plan),
         _ => drive(p, Exact::new(flow), opts, plan),
     }
 }
@@ -1242,7 +1241,7 @@ where
     let method = u.int_in_range(0u8..=8)?;
     trace(|| format!("sensitivities: method {method}, {so:?}"));
     match method {
-        0 => probe_sens(sensitivity::solve(p, ExplicitEuler, &opts, &so)),
+        0 => probe_sens(sensitivity::solve(p, Euler, &opts, &so)),
         1 => probe_sens(sensitivity::solve(p, ImplicitEuler::<Dyn>::default(), &opts, &so)),
         2 => probe_sens(sensitivity::solve(
             p,
@@ -1250,7 +1249,7 @@ where
             &opts,
             &so,
         )),
-        3 => probe_sens(sensitivity::solve(p, Dopri5::<Dyn>::default(), &opts, &so)),
+        3 => probe_sens(sensitivity::solve(p, Rk45::<Dyn>::default(), &opts, &so)),
         4 => probe_sens(sensitivity::solve(p, Bdf::<Dyn>::default(), &opts, &so)),
         5 => probe_sens(sensitivity::solve(p, Rodas5P::<Dyn>::default(), &opts, &so)),
         6 => probe_sens(sensitivity::solve(p, ExponentialEuler::<Dyn>::default(), &opts, &so)),
@@ -1400,12 +1399,12 @@ fn solve_case(u: &mut Unstructured, legacy: bool) -> Result<()> {
             solve_problem(u, &f, x0, 0, flow, span, &opts, &plan, legacy, no_exact)
         }
         2 => {
-            let f = reckon::models::unicycle::model();
+            let f = reckon::vehicles::unicycle::model();
             let x0: SVector<f64, 3> = state(u, reckon::nalgebra::Const::<3>)?;
             let exact = |p: &Problem<'_, _, _>, o: &Options, so: &SensitivityOptions| {
                 probe_sens(sensitivity::solve(
                     p,
-                    Exact::new(reckon::models::unicycle::ExactFlow),
+                    Exact::new(reckon::vehicles::unicycle::ExactFlow),
                     o,
                     so,
                 ))
@@ -1415,7 +1414,7 @@ fn solve_case(u: &mut Unstructured, legacy: bool) -> Result<()> {
                 &f,
                 x0,
                 2,
-                reckon::models::unicycle::flow,
+                reckon::vehicles::unicycle::flow,
                 span,
                 &opts,
                 &plan,
@@ -1446,7 +1445,7 @@ fn solve_case(u: &mut Unstructured, legacy: bool) -> Result<()> {
         }
         7 => {
             let nb = u.int_in_range(0usize..=40)?;
-            let f = reckon::problems::brusselator(nb);
+            let f = reckon::studies::problems::brusselator(nb);
             let x0 = if u.ratio(1u8, 2)? {
                 DVector::from_fn(
                     2 * nb,
@@ -1868,8 +1867,8 @@ fn check_trace(
     inputs: [f64; 2],
     t: f64,
 ) -> Result<()> {
+    use reckon::jacobian::SparseJacobian as _;
     use reckon::nalgebra::{Matrix3, Vector3};
-    use reckon::sparse::SparseJacobian as _;
     let traced = reckon::symbolic::trace(f, 3);
     let branches = es.iter().any(Tree::branches);
     let tr = match traced {

@@ -6,42 +6,37 @@
 pub mod guide {}
 
 pub mod calibration;
-pub mod control;
-pub mod controls;
 pub mod ensemble;
 pub mod error;
-pub mod events;
 pub mod integrator;
+pub mod jacobian;
 pub mod kalman;
-mod lhs;
 pub mod linalg;
-pub mod lti;
 pub mod methods;
-pub mod models;
-pub mod options;
-pub mod params;
+pub mod model;
 pub mod prelude;
 pub mod problem;
-pub mod problems;
 pub mod reckoning;
 pub mod sensitivity;
-pub mod solution;
-pub mod sparse;
 pub mod studies;
 pub mod symbolic;
-pub mod system;
+pub mod vehicles;
 
-pub use controls::Controls;
 pub use error::{Error, Result};
-pub use events::{Direction, Event};
 pub use integrator::Integrator;
-pub use lti::Lti;
+pub use jacobian::LinearSolver;
+pub use model::{ClosureModel, DualFlow, DualSystem, Flow, Lti, ParamModel, Stats, System};
 pub use nalgebra;
 pub use num_dual;
+pub use problem::Problem;
+pub use problem::controls::Controls;
+pub use problem::events::{Direction, Event};
+pub use problem::options::{Options, Save, StepSize};
+pub use problem::solution::{Solution, Switch, SwitchReason};
 
 #[doc(hidden)]
 pub mod __private {
-    pub use crate::lhs::Lhs;
+    pub use crate::model::lhs::Lhs;
     pub use num_traits::Signed;
     pub use reckon_macros::{lift_literals, mentions};
 
@@ -57,8 +52,3 @@ pub mod __private {
         nalgebra::SMatrix::from_fn(|i, j| rows[i][j].clone())
     }
 }
-pub use options::{Options, Save, StepSize};
-pub use params::ParamModel;
-pub use problem::Problem;
-pub use solution::{Solution, Stats, Switch, SwitchReason};
-pub use system::{ClosureModel, DualSystem, System};

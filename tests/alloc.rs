@@ -1,9 +1,9 @@
 //! A counting global allocator: a fixed-size step allocates nothing after setup.
 
 use nalgebra::vector;
-use reckon::methods::{Bdf, Dopri5, Exact, ExplicitEuler, ImplicitEuler, Method, Rodas5P};
-use reckon::models::unicycle;
-use reckon::problems::{robertson, van_der_pol};
+use reckon::methods::{Bdf, Euler, Exact, ImplicitEuler, Method, Rk45, Rodas5P};
+use reckon::studies::problems::{robertson, van_der_pol};
+use reckon::vehicles::unicycle;
 use reckon::{Controls, Options, Problem, System};
 use std::alloc::{GlobalAlloc, Layout, System as Sys};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -67,13 +67,13 @@ fn fixed_size_steps_allocate_nothing() {
     let opts = Options::default().dense(false);
     let vdp = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 20.0));
     assert_eq!(
-        allocs_in_steps(&vdp, ExplicitEuler, &opts.clone().fixed(1e-3), 200),
+        allocs_in_steps(&vdp, Euler, &opts.clone().fixed(1e-3), 200),
         0,
         "explicit Euler"
     );
-    assert_eq!(allocs_in_steps(&vdp, Dopri5::default(), &opts, 50), 0, "adaptive RK45");
+    assert_eq!(allocs_in_steps(&vdp, Rk45::default(), &opts, 50), 0, "adaptive RK45");
     assert_eq!(
-        allocs_in_steps(&vdp, Dopri5::default(), &opts.clone().fixed(0.01), 200),
+        allocs_in_steps(&vdp, Rk45::default(), &opts.clone().fixed(0.01), 200),
         0,
         "fixed RK45"
     );
@@ -116,7 +116,7 @@ fn fixed_size_steps_allocate_nothing() {
         "exact flow"
     );
     assert_eq!(
-        allocs_in_steps(&uni, Dopri5::default(), &opts, 200),
+        allocs_in_steps(&uni, Rk45::default(), &opts, 200),
         0,
         "RK45 across breakpoints"
     );

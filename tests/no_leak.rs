@@ -4,8 +4,8 @@
 //! free; owned inputs held at its start (set by hand) must not be leaked.
 
 use nalgebra::vector;
-use reckon::methods::{Exact, ExplicitEuler};
-use reckon::models::unicycle;
+use reckon::methods::{Euler, Exact};
+use reckon::vehicles::unicycle;
 use reckon::{Controls, Options, Problem};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicIsize, Ordering};
@@ -47,7 +47,7 @@ fn solve_frees_what_it_allocates_with_inputs_set_by_hand() {
                 it.set_inputs(&[0.5, round as f64]).unwrap();
             }
             ends.push(*it.solve().unwrap().last().1);
-            let mut it = p.integrator(ExplicitEuler, &euler).unwrap();
+            let mut it = p.integrator(Euler, &euler).unwrap();
             it.step().unwrap();
             if set {
                 it.set_inputs(&[0.5, round as f64]).unwrap();

@@ -15,7 +15,7 @@ use diffsol::{
 use nalgebra::{Const, SVector};
 use reckon::linalg::LuDim;
 use reckon::methods::{Bdf, ImplicitEuler, Rodas5P};
-use reckon::problems::*;
+use reckon::studies::problems::*;
 use reckon::{Options, Problem, System};
 use std::cell::Cell;
 use std::rc::Rc;

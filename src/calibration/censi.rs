@@ -61,7 +61,7 @@ fn ominus(a: &Vector3<f64>) -> Vector3<f64> {
     Vector3::new(-c * a[0] - s * a[1], s * a[0] - c * a[1], -a[2])
 }
 
-use crate::models::unicycle::sinc;
+use crate::vehicles::unicycle::sinc;
 
 /// Robot displacement per unit wheel base: `(c_x, c_y, o_θ)` from `J21, J22`.
 fn unit_odometry(j21: f64, j22: f64, wheels: &[[f64; 2]]) -> Vector3<f64> {

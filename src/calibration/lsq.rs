@@ -34,12 +34,12 @@
 //! converged, with a covariance. Real logs with a few thousand poses reach `‖r‖ > 10⁴`
 //! from a nominal geometry.)
 
-use crate::controls::Controls;
 use crate::error::{Error, Result};
-use crate::options::{Options, Save};
+use crate::model::DualSystem;
 use crate::problem::Problem;
+use crate::problem::controls::Controls;
+use crate::problem::options::{Options, Save};
 use crate::sensitivity::{self, Augment, SensitivityOptions, Wrt};
-use crate::system::DualSystem;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, OVector, U1};
 
@@ -147,7 +147,7 @@ where
             for (c, &comp) in self.obs.components.iter().enumerate() {
                 let mut d = sol.x[i][comp] - y[c];
                 if self.obs.angles.contains(&comp) {
-                    d = crate::models::wrap_angle(d);
+                    d = crate::vehicles::wrap_angle(d);
                 }
                 let w = 1.0 / self.obs.sigma[c];
                 r.push(d * w);
@@ -324,7 +324,7 @@ fn identifiability(j: &DMatrix<f64>) -> (f64, usize) {
 ///
 /// ```
 /// use reckon::calibration::lsq::{self, LsqOptions, Observations};
-/// use reckon::{model, Controls, Options, Problem, methods::Dopri5};
+/// use reckon::{model, Controls, Options, Problem, methods::Rk45};
 /// use nalgebra::vector;
 /// // x' = −k·x from noise-free samples of x(t) = e^{−0.7 t}
 /// let build = |p: &[f64]| model!(|_, x: [S; 1], u: [1], p: [S; 1] = [1.0]| vector![-(p[0] * x[0])]).with_params(p);
@@ -334,7 +334,7 @@ fn identifiability(j: &DMatrix<f64>) -> (f64, usize) {
 ///     t, components: vec![0], sigma: vec![1e-3], angles: vec![],
 /// };
 /// let u = Controls::new(vec![0.0], vec![vec![0.0]]).unwrap();
-/// let fit = lsq::fit(&build, &[0.2], &vector![1.0], 0.0, &u, &obs, Dopri5::default(),
+/// let fit = lsq::fit(&build, &[0.2], &vector![1.0], 0.0, &u, &obs, Rk45::default(),
 ///     &Options::default().rtol(1e-10).atol(1e-12), &LsqOptions::default()).unwrap();
 /// assert!((fit.estimate.value[0] - 0.7).abs() < 1e-8);
 /// ```
@@ -539,7 +539,7 @@ pub fn fit_encoder_log(
         t0,
         &controls,
         &obs,
-        crate::methods::Dopri5::default(),
+        crate::methods::Rk45::default(),
         &Options::default().rtol(1e-9).atol(1e-12).max_steps(10_000_000),
         &LsqOptions::default(),
     )?;

@@ -19,7 +19,7 @@
 
 use super::Estimate;
 use crate::error::{Error, Result};
-use crate::reckoning::errors::EncoderErrors;
+use crate::reckoning::encoder_sim::EncoderErrors;
 use nalgebra::{DMatrix, Matrix2, Vector2};
 use std::f64::consts::FRAC_PI_2;
 
@@ -126,7 +126,7 @@ impl UmbmarkFit {
     /// ```
     /// # use reckon::calibration::umbmark::calibrate;
     /// # use nalgebra::Vector2;
-    /// use reckon::reckoning::errors::EncoderErrors;
+    /// use reckon::reckoning::encoder_sim::EncoderErrors;
     /// let fit = calibrate(&[Vector2::new(0.0, 0.0)], &[Vector2::new(0.0, 0.0)], 4.0, 0.5).unwrap();
     /// let e = EncoderErrors { wheelbase_scale: 1.01, ..Default::default() };
     /// assert_eq!(fit.residual_errors(&e).wheelbase_scale, 1.01);
@@ -173,7 +173,7 @@ fn centre(runs: &[Vector2<f64>]) -> (Vector2<f64>, Option<Matrix2<f64>>) {
 ///
 /// ```
 /// use reckon::calibration::umbmark::calibrate;
-/// use reckon::reckoning::{drift::umbmark, encoders::DiffDrive, errors::EncoderErrors};
+/// use reckon::reckoning::{drift::umbmark, encoders::DiffDrive, encoder_sim::EncoderErrors};
 /// let robot = DiffDrive::new(0.1, 0.5, 1000.0).unwrap();
 /// let (ed, eb) = (1.002, 1.01);
 /// let e = EncoderErrors { left_scale: 2.0 / (ed + 1.0), right_scale: 2.0 / (1.0 / ed + 1.0), wheelbase_scale: eb, ..Default::default() };

@@ -4,8 +4,8 @@
 
 use super::{Layout, Member};
 use crate::error::{Brief, Error, Result};
+use crate::reckoning::encoder_sim::{Command, EncoderErrors, Simulator, samples_of};
 use crate::reckoning::encoders::{DiffDrive, Update, advance};
-use crate::reckoning::errors::{Command, EncoderErrors, Simulator, samples_of};
 use nalgebra::{Matrix3, SVector, Vector3};
 use num_dual::{DualNum, DualSVec64};
 use rand_distr::{Distribution, StandardNormal};
@@ -28,7 +28,7 @@ pub const MAX_SAMPLES_PER_MEMBER: f64 = 1e9;
 ///
 /// ```
 /// use reckon::ensemble::{Ensemble, encoder::EncoderEnsemble};
-/// use reckon::reckoning::{encoders::DiffDrive, errors::{Command, EncoderErrors}};
+/// use reckon::reckoning::{encoders::DiffDrive, encoder_sim::{Command, EncoderErrors}};
 /// let robot = DiffDrive::new(0.1, 0.5, 1000.0).unwrap();
 /// let errors = EncoderErrors { pulse_noise: 2.0, ..Default::default() };
 /// let drive = EncoderEnsemble::new(robot, errors, vec![Command { v: 1.0, omega: 0.0, duration: 10.0 }], 0.01).unwrap();
@@ -134,7 +134,7 @@ impl EncoderEnsemble {
     ///
     /// ```
     /// use reckon::ensemble::encoder::EncoderEnsemble;
-    /// use reckon::reckoning::{encoders::DiffDrive, errors::{Command, EncoderErrors}};
+    /// use reckon::reckoning::{encoders::DiffDrive, encoder_sim::{Command, EncoderErrors}};
     /// let robot = DiffDrive::new(0.1, 0.5, 1000.0).unwrap();
     /// let c = |duration| Command { v: 1.0, omega: 0.0, duration };
     /// let drive = EncoderEnsemble::new(robot, EncoderErrors::default(), vec![c(10.0), c(0.001)], 0.01).unwrap();

@@ -33,12 +33,12 @@
 //! ```
 
 pub mod encoder;
-pub mod exact;
-pub mod sketch;
+pub mod exact_sum;
+pub mod quantile_sketch;
 pub mod stats;
 
-pub use exact::ExactSum;
-pub use sketch::Sketch;
+pub use exact_sum::ExactSum;
+pub use quantile_sketch::Sketch;
 pub use stats::{Moments, Snapshot};
 
 use crate::error::{Error, Result};
@@ -700,7 +700,7 @@ impl Ensemble {
     ///
     /// ```
     /// use reckon::ensemble::{Ensemble, Layout};
-    /// use reckon::{model, methods::Dopri5, Options, Problem, Save};
+    /// use reckon::{model, methods::Rk45, Options, Problem, Save};
     /// use nalgebra::vector;
     /// use rand_distr::{Distribution, Normal};
     /// // x' = −x, x₀ ~ N(1, 0.1²): x(1) ~ N(e⁻¹, (0.1·e⁻¹)²)
@@ -710,7 +710,7 @@ impl Ensemble {
     /// let stats = Ensemble::new(4000, 1)
     ///     .solve(&layout, |m| {
     ///         let x0 = Normal::new(1.0, 0.1).unwrap().sample(m.rng());
-    ///         Problem::new(&f, vector![x0], (0.0, 1.0)).solve(Dopri5::default(), &opts)
+    ///         Problem::new(&f, vector![x0], (0.0, 1.0)).solve(Rk45::default(), &opts)
     ///     })
     ///     .unwrap();
     /// let sd = stats.covariance(0)[(0, 0)].sqrt();

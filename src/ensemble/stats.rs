@@ -1,8 +1,8 @@
 //! Streaming, mergeable, order-independent statistics: exact first and second moments,
 //! extremes, and quantile sketches, per saved time.
 
-use super::exact::{ExactSum, StoredSum, fast_two_sum, two_sum};
-use super::sketch::{Sketch, SketchFile};
+use super::exact_sum::{ExactSum, StoredSum, fast_two_sum, two_sum};
+use super::quantile_sketch::{Sketch, SketchFile};
 use crate::error::{Error, Result};
 use nalgebra::{DMatrix, DVector};
 use serde::{Deserialize, Serialize};
@@ -370,7 +370,7 @@ impl Moments {
         let mut k = 0;
         for i in 0..self.dim {
             for j in i..self.dim {
-                let v = super::exact::covariance(&self.s2[k], &self.s1[i], &self.s1[j], self.n);
+                let v = super::exact_sum::covariance(&self.s2[k], &self.s1[i], &self.s1[j], self.n);
                 c[(i, j)] = v;
                 c[(j, i)] = v;
                 k += 1;

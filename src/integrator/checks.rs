@@ -3,10 +3,10 @@
 
 use super::Integrator;
 use crate::error::Result;
-use crate::events::locate;
 use crate::methods::Method;
-use crate::solution::{EventHit, Stiffness, horner};
-use crate::system::System;
+use crate::model::System;
+use crate::problem::events::locate;
+use crate::problem::solution::{EventHit, Stiffness, horner};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim};
 

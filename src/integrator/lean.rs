@@ -7,7 +7,7 @@
 use super::Integrator;
 use crate::error::{Error, Result};
 use crate::methods::{Method, Outcome};
-use crate::system::System;
+use crate::model::System;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 

@@ -5,24 +5,25 @@ mod checks;
 mod lean;
 pub(crate) mod save;
 
-use crate::control::{Controller, Weights, initial_step};
 use crate::error::{Error, Result};
+use crate::methods::step_size::{Controller, Weights, initial_step};
 use crate::methods::{Failure, Method, Outcome};
-use crate::options::{Options, Save, StepSize};
+use crate::model::Stats;
+use crate::model::{Eval, System};
 use crate::problem::Problem;
-use crate::solution::{DenseSegment, EventHit, Solution, Stats, Stiffness, Switch};
-use crate::system::{Eval, System};
+use crate::problem::options::{Options, Save, StepSize};
+use crate::problem::solution::{DenseSegment, EventHit, Solution, Stiffness, Switch};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// Integrates a [`Problem`] one accepted step at a time.
 ///
 /// ```
-/// use reckon::{model, Problem, Options, methods::ExplicitEuler};
+/// use reckon::{model, Problem, Options, methods::Euler};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 1]| vector![x[0]]);
 /// let p = Problem::new(&f, vector![1.0], (0.0, 1.0));
-/// let mut it = p.integrator(ExplicitEuler, &Options::default().fixed(0.25)).unwrap();
+/// let mut it = p.integrator(Euler, &Options::default().fixed(0.25)).unwrap();
 /// while it.step().unwrap().is_some() {}
 /// assert_eq!(it.t(), 1.0);
 /// assert!((it.x()[0] - 1.25f64.powi(4)).abs() < 1e-15);
@@ -410,7 +411,7 @@ where
     /// set the inputs of the interval ahead, then [`step_until`](Self::step_until) its end.
     ///
     /// ```
-    /// use reckon::{methods::Exact, models::unicycle, Options, Problem};
+    /// use reckon::{methods::Exact, vehicles::unicycle, Options, Problem};
     /// use nalgebra::vector;
     /// // an open-ended problem fed one control interval at a time
     /// let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, f64::INFINITY)).inputs(vec![1.0, 0.0]);
@@ -457,11 +458,11 @@ where
     /// `t_end` acts as `t_end`. This is how an open-ended span (`t_end = ±∞`) is driven.
     ///
     /// ```
-    /// use reckon::{model, Problem, Options, methods::Dopri5};
+    /// use reckon::{model, Problem, Options, methods::Rk45};
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (1.7e12, f64::INFINITY)); // epoch milliseconds
-    /// let mut it = p.integrator(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
+    /// let mut it = p.integrator(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
     /// while !it.reached(1.7e12 + 1.0) {
     ///     it.step_until(1.7e12 + 1.0).unwrap();
     /// }

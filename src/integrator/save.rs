@@ -2,8 +2,8 @@
 //! saver sees every accepted step (its end state, and for output times the step's dense
 //! polynomial) and stores only what was asked for.
 
-use crate::options::Save;
-use crate::solution::horner;
+use crate::problem::options::Save;
+use crate::problem::solution::horner;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 

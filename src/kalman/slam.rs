@@ -11,7 +11,7 @@
 
 use super::Kalman;
 use crate::error::Result;
-use crate::models::body3d::rotation;
+use crate::vehicles::body3d::rotation;
 use nalgebra::{DMatrix, DVector, Matrix2, Vector2, Vector3};
 use rand::SeedableRng;
 use rand::rngs::StdRng;

@@ -4,8 +4,8 @@
 
 use crate::error::Result;
 use crate::methods::ImplicitEuler;
-use crate::methods::dopri5::tableau as dp5;
-use crate::system::DualSystem;
+use crate::methods::rk45::tableau as dp5;
+use crate::model::DualSystem;
 use crate::{Options, Problem};
 use nalgebra::{Const, SMatrix, SVector};
 use num_dual::DualSVec64;
@@ -62,7 +62,7 @@ fn rk_dual<const N: usize, S: DualSystem<Const<N>>>(
 ///
 /// ```
 /// use reckon::kalman::step::{step_jacobian, Discretization};
-/// use reckon::models::unicycle;
+/// use reckon::vehicles::unicycle;
 /// use nalgebra::vector;
 /// let (x1, a) = step_jacobian(&unicycle::model(), Discretization::Euler, 0.0, &vector![0.0, 0.0, 0.3], &[2.0, 0.1], 0.1).unwrap();
 /// assert!((x1[0] - 0.2 * 0.3f64.cos()).abs() < 1e-15);
@@ -144,7 +144,7 @@ pub fn flow_jacobian<const N: usize>(
 ///
 /// ```
 /// use reckon::kalman::{Kalman, step::{ekf_predict, Discretization}};
-/// use reckon::models::unicycle;
+/// use reckon::vehicles::unicycle;
 /// use nalgebra::{vector, Matrix3};
 /// let mut k = Kalman::new(vector![0.0, 0.0, 0.0], Matrix3::identity() * 0.01);
 /// ekf_predict(&mut k, &unicycle::model(), Discretization::Rk45, 0.0, &[1.0, 0.0], 1.0, &Matrix3::zeros()).unwrap();

@@ -1,14 +1,14 @@
-//! Automatic switching between [`Dopri5`] and [`Bdf`], in the manner of LSODA
+//! Automatic switching between [`Rk45`] and [`Bdf`], in the manner of LSODA
 //! (Petzold 1983): start explicit, go implicit when the explicit method's step is bound
 //! by stability or when BDF's estimated cost per unit time is lower, and come back when
 //! DOPRI5's is.
 
-use super::{Bdf, Dopri5, Method, Outcome};
-use crate::control::{Controller, Weights};
+use super::{Bdf, Method, Outcome, Rk45};
 use crate::error::Result;
 use crate::linalg::LuDim;
-use crate::solution::SwitchReason;
-use crate::system::{Eval, System};
+use crate::methods::step_size::{Controller, Weights};
+use crate::model::{Eval, System};
+use crate::problem::solution::SwitchReason;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
 
@@ -142,7 +142,7 @@ enum Mode {
     Implicit,
 }
 
-/// Auto-switching: [`Dopri5`] while it is the cheaper method, [`Bdf`] while the problem
+/// Auto-switching: [`Rk45`] while it is the cheaper method, [`Bdf`] while the problem
 /// is stiff or BDF is cheaper.
 ///
 /// **Step estimates** (LSODA compares the steps its two methods would take; here from
@@ -171,12 +171,12 @@ enum Mode {
 /// the active method's. Breakpoints reset both methods and keep the mode.
 ///
 /// ```
-/// use reckon::{methods::{Auto, Dopri5}, problems::van_der_pol, Options, Problem, SwitchReason};
+/// use reckon::{methods::{Auto, Rk45}, studies::problems::van_der_pol, Options, Problem, SwitchReason};
 /// use nalgebra::vector;
 /// let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 400.0));
 /// let o = Options::default().rtol(1e-6).atol(1e-6);
 /// let auto = p.solve(Auto::default(), &o).unwrap();
-/// let rk = p.solve(Dopri5::default(), &o.clone().max_steps(10_000_000)).unwrap();
+/// let rk = p.solve(Rk45::default(), &o.clone().max_steps(10_000_000)).unwrap();
 /// assert_eq!(auto.switches[0].to, "bdf");          // stiff from the start
 /// assert!(auto.switches[0].t < 1.0);
 /// assert!(matches!(auto.switches[0].reason, SwitchReason::Stiff { h_lambda } if h_lambda > 2.0));
@@ -188,7 +188,7 @@ where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
     /// The non-stiff method.
-    pub explicit: Dopri5<D>,
+    pub explicit: Rk45<D>,
     /// The stiff method.
     pub implicit: Bdf<D>,
     mode: Mode,
@@ -224,7 +224,7 @@ where
 {
     fn default() -> Self {
         Auto {
-            explicit: Dopri5::default(),
+            explicit: Rk45::default(),
             implicit: Bdf::default(),
             mode: Mode::Explicit,
             streak: 0,

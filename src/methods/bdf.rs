@@ -5,10 +5,10 @@
 
 use super::newton::{self, Goal, Newton};
 use super::{Method, Outcome};
-use crate::control::Weights;
 use crate::error::Result;
 use crate::linalg::LuDim;
-use crate::system::{Eval, System};
+use crate::methods::step_size::Weights;
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
 
@@ -87,7 +87,7 @@ impl Coefficients {
 /// digit, and 3 % at loose tolerances, which moved OREGO's limit cycle by a spike.
 ///
 /// **Loose tolerances** above 1e-3 are tightened to `0.1·rtol^{2/3}`
-/// ([`Weights::tighten_loose`](crate::control::Weights::tighten_loose)), as RADAU5 does.
+/// ([`Weights::tighten_loose`](crate::methods::step_size::Weights::tighten_loose)), as RADAU5 does.
 ///
 /// **Tolerance proportionality.** Held to the tolerance step by step, an order-`p` method
 /// takes `N ∝ tol^{−1/(p+1)}` steps, each with an error of the order of `tol`, so its
@@ -97,7 +97,7 @@ impl Coefficients {
 /// `p` the highest order allowed, which restores slope 1 and leaves every `rtol` from
 /// 1e-6 up as it was; the tightened `rtol` never goes below `min(rtol, 1e-14)`. Inside
 /// [`Auto`](super::Auto) only the BDF steps are held so: its DOPRI5 steps stay those of
-/// [`Dopri5`](super::Dopri5).
+/// [`Rk45`](super::Rk45).
 ///
 /// **Error and order.** The local error is `C_k ∇^{k+1} y_{n+1}` with `C_k = κ_kγ_k +
 /// 1/(k+1)`, accepted when its weighted RMS norm `ε ≤ 1`. Every proposal aims at

@@ -2,39 +2,18 @@
 //! closed form, `x(t + h) = φ_h(t, x, u)` is the step itself.
 
 use super::{Method, Outcome};
-use crate::control::Weights;
 use crate::error::Result;
-use crate::system::{Eval, System};
+use crate::methods::step_size::Weights;
+use crate::model::{Eval, Flow, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
-
-/// A closed-form flow `out ← φ_h(t, x, u)` of `x' = f(t, x, u)` with `u` held.
-///
-/// Any `Fn(f64, &OVector, &[f64], f64) -> OVector` is a `Flow`.
-pub trait Flow<D: Dim>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    /// `out ← φ_h(t, x, u)`.
-    fn flow(&self, t: f64, x: &OVector<f64, D>, u: &[f64], h: f64, out: &mut OVector<f64, D>);
-}
-
-impl<D: Dim, F> Flow<D> for F
-where
-    F: Fn(f64, &OVector<f64, D>, &[f64], f64) -> OVector<f64, D>,
-    DefaultAllocator: Allocator<D>,
-{
-    fn flow(&self, t: f64, x: &OVector<f64, D>, u: &[f64], h: f64, out: &mut OVector<f64, D>) {
-        *out = self(t, x, u, h);
-    }
-}
 
 /// The exact method: `x₁ = φ_h(t₀, x₀, u)`. Error-free up to rounding for any `h`, so it
 /// takes one step per control interval unless a fixed step asks for a finer grid.
 /// Dense output is the cubic Hermite interpolant through both ends (two `f` calls).
 ///
 /// ```
-/// use reckon::{methods::Exact, models::unicycle, Options, Problem, Controls};
+/// use reckon::{methods::Exact, vehicles::unicycle, Options, Problem, Controls};
 /// use nalgebra::vector;
 /// let controls = Controls::new(vec![0.0, 2.0], vec![vec![1.0, 0.0], vec![0.0, 0.0]]).unwrap();
 /// let sol = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 2.0))

@@ -2,10 +2,10 @@
 //! the exact flow of the model linearised at the start of each step.
 
 use super::{Method, Outcome};
-use crate::control::Weights;
 use crate::error::Result;
 use crate::linalg::expm::phi_combination;
-use crate::system::{Eval, System};
+use crate::methods::step_size::Weights;
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DefaultAllocator, Dim, OMatrix, OVector};
 

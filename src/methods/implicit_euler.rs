@@ -2,10 +2,10 @@
 
 use super::newton::{self, Goal, Newton};
 use super::{Method, Outcome};
-use crate::control::{Controller, Weights};
 use crate::error::Result;
 use crate::linalg::LuDim;
-use crate::system::{Eval, System};
+use crate::methods::step_size::{Controller, Weights};
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
 
@@ -60,7 +60,7 @@ impl Default for NewtonOptions {
 /// tighter target. `proportional(false)` is the classical per-step control (what the
 /// stiffness study counts: the step the method's accuracy needs per step), without the
 /// loose-tolerance transform the other implicit methods share
-/// ([`Weights::tighten_loose`](crate::control::Weights::tighten_loose)).
+/// ([`Weights::tighten_loose`](crate::methods::step_size::Weights::tighten_loose)).
 ///
 /// ```
 /// use reckon::{model, methods::ImplicitEuler, Options, Problem, StepSize};

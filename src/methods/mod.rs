@@ -2,30 +2,32 @@
 //! loops over time. The [`Integrator`](crate::Integrator) drives every method
 //! through this trait and never asks which one it holds.
 
-use crate::control::{Controller, Weights};
 use crate::error::Result;
-use crate::system::{Eval, System};
+use crate::methods::step_size::{Controller, Weights};
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
 pub mod auto;
 pub mod bdf;
 mod dense;
-pub mod dopri5;
+pub mod euler;
 pub mod exact;
-pub mod explicit_euler;
 pub mod exponential_euler;
 pub mod implicit_euler;
+pub(crate) mod iteration;
 pub mod newton;
+pub mod rk45;
 pub mod rodas5p;
+pub mod step_size;
 
 pub use auto::Auto;
 pub use bdf::Bdf;
-pub use dopri5::Dopri5;
-pub use exact::{Exact, Flow};
-pub use explicit_euler::ExplicitEuler;
+pub use euler::Euler;
+pub use exact::Exact;
 pub use exponential_euler::ExponentialEuler;
 pub use implicit_euler::{ImplicitEuler, NewtonOptions};
+pub use rk45::Rk45;
 pub use rodas5p::Rodas5P;
 
 /// What one step attempt produced.
@@ -78,7 +80,7 @@ where
     /// How many times the tolerance-scaled norm this method's `err` reads (≥ 1): a method
     /// that holds its local error tighter than the tolerance (implicit Euler's tolerance
     /// proportionality) says so, and the first step is sized for it, `h₀·scale^(−1/(q+1))`.
-    fn error_scale(&self, _w: &crate::control::Weights<D>) -> f64 {
+    fn error_scale(&self, _w: &crate::methods::step_size::Weights<D>) -> f64 {
         1.0
     }
     /// The step-size controller that suits the estimate.
@@ -160,7 +162,7 @@ where
     /// After [`accept`](Method::accept): the name of the method an auto-switching method
     /// ([`Auto`]) has just switched to, once; the driver records it in
     /// [`Solution::switches`](crate::Solution::switches).
-    fn switched(&mut self) -> Option<(&'static str, crate::solution::SwitchReason)> {
+    fn switched(&mut self) -> Option<(&'static str, crate::problem::solution::SwitchReason)> {
         None
     }
     /// Whether the driver's crossing test applies to this method's adaptive steps (a
@@ -179,7 +181,7 @@ where
     /// whose large steps at a loose tolerance otherwise shift a limit cycle's phase by a
     /// spike (OREGO at `rtol` 0.1–3e-2, `examples/tolerance_sweep.rs`).
     ///
-    /// [`Weights::tighten_loose`]: crate::control::Weights::tighten_loose
+    /// [`Weights::tighten_loose`]: crate::methods::step_size::Weights::tighten_loose
     fn tightens_loose_tolerances(&self) -> bool {
         false
     }
@@ -196,7 +198,7 @@ pub(crate) fn state_error<D: Dim>(x_new: &OVector<f64, D>, t: f64) -> crate::Err
 where
     DefaultAllocator: Allocator<D>,
 {
-    match crate::system::finite(x_new.as_slice(), t, crate::error::Quantity::State) {
+    match crate::model::finite(x_new.as_slice(), t, crate::error::Quantity::State) {
         Err(e) => e,
         Ok(()) => crate::Error::NonFinite {
             t,

@@ -15,10 +15,11 @@
 //! components that a stale `c` would slow.
 
 use super::Failure;
-use crate::control::Weights;
+use super::iteration::IterationMatrix;
 use crate::error::Result;
-use crate::linalg::{IterationMatrix, LuDim};
-use crate::system::{Eval, System};
+use crate::linalg::LuDim;
+use crate::methods::step_size::Weights;
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
 

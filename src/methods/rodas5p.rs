@@ -1,11 +1,12 @@
 //! Rodas5P: Steinebach's (2023) stiffly accurate, L-stable Rosenbrock method of order 5
 //! with an embedded method of order 4 and a dense output of order 4.
 
+use super::iteration::IterationMatrix;
 use super::{Failure, Method, Outcome};
-use crate::control::{Controller, Weights};
 use crate::error::Result;
-use crate::linalg::{IterationMatrix, LuDim};
-use crate::system::{Eval, System};
+use crate::linalg::LuDim;
+use crate::methods::step_size::{Controller, Weights};
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
 

@@ -1,7 +1,7 @@
 //! Drift studies: how odometry error grows with distance and with manoeuvres, as tables.
 
+use super::encoder_sim::{Command, EncoderErrors, simulate};
 use super::encoders::{DiffDrive, Update, odometry};
-use super::errors::{Command, EncoderErrors, simulate};
 use crate::error::Result;
 use nalgebra::Vector3;
 use std::f64::consts::FRAC_PI_2;

@@ -5,7 +5,7 @@
 //! `Δθ = (d_r − d_l)/B` (B wheel separation). The pose update is one of three rules.
 
 use crate::error::{Error, Result};
-use crate::models::unicycle;
+use crate::vehicles::unicycle;
 use nalgebra::Vector3;
 
 /// How a pose is advanced by `(Δs, Δθ)`.

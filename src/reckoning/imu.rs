@@ -5,7 +5,7 @@
 //! specific force `f = Rᵀ(a − g)`, so a level IMU at rest reads `(0, 0, +9.81)`.
 
 use crate::error::{Error, Result};
-use crate::methods::Dopri5;
+use crate::methods::Rk45;
 use crate::{Controls, Options, Problem, Solution};
 use nalgebra::{Const, Matrix3, Vector3, Vector5};
 
@@ -49,10 +49,9 @@ pub fn dead_reckon_2d(
         .collect();
     let controls = Controls::new(times, values)?;
     let span = (samples[0].0, samples[samples.len() - 1].0);
-    Problem::new(model_2d(), x0, span).controls(controls).solve(
-        Dopri5::default(),
-        &Options::default().rtol(1e-10).atol(1e-10).dense(true),
-    )
+    Problem::new(model_2d(), x0, span)
+        .controls(controls)
+        .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-10).dense(true))
 }
 
 /// Strapdown navigation state: attitude `R` (body → world), velocity, position.
@@ -177,7 +176,7 @@ pub fn strapdown(
 /// cannot be told apart.
 ///
 /// ```
-/// use reckon::models::body3d::rotation;
+/// use reckon::vehicles::body3d::rotation;
 /// use reckon::reckoning::imu::euler_angles;
 /// let (r, p, y) = euler_angles(&rotation(0.1, -0.4, 2.0), 0.0).unwrap();
 /// assert!((r - 0.1).abs() < 1e-14 && (p + 0.4).abs() < 1e-14 && (y - 2.0).abs() < 1e-14);

@@ -7,11 +7,11 @@ use super::{Sensitivities, SensitivityOptions, Split, stacked_start};
 use crate::error::{Error, Result};
 use crate::integrator::save::{Saver, needs_dense};
 use crate::linalg::{Lu, LuDim};
-use crate::methods::dopri5::{contd5, tableau};
-use crate::methods::{Dopri5, ImplicitEuler};
-use crate::options::Options;
+use crate::methods::rk45::{contd5, tableau};
+use crate::methods::{ImplicitEuler, Rk45};
+use crate::model::DualSystem;
 use crate::problem::Problem;
-use crate::system::DualSystem;
+use crate::problem::options::Options;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, U1};
 
@@ -147,7 +147,7 @@ where
                 sdot_inputs = Some(u.clone());
             }
             z.rows_mut(0, n).copy_from_slice(x1.as_slice());
-            crate::system::finite(z.as_slice(), t1, crate::error::Quantity::State)?;
+            crate::model::finite(z.as_slice(), t1, crate::error::Quantity::State)?;
             if at_times {
                 let [c0, c1] = &mut dense;
                 c1.copy_from(&z);
@@ -191,7 +191,7 @@ where
     let (m, _) = sens.wrt.columns(n, np);
     let nm = n * m;
     let r = D::from_usize(n);
-    let mut it = problem.integrator(Dopri5::<D>::new(), opts)?;
+    let mut it = problem.integrator(Rk45::<D>::new(), opts)?;
     let mut z = stacked_start(problem.x0.as_slice(), m, sens.wrt);
     let mut out = Saver::<Dyn, _>::with_store(&opts.save, it.direction(), problem.t0, &z, Split::<D>::new(n, m));
     let at_times = needs_dense(&opts.save);
@@ -234,7 +234,7 @@ where
         }
         let (t, h, _) = it.last_step();
         let Some(k) = it.method().stages() else {
-            return Err(Error::invalid("method", "Dopri5 took a step without stages"));
+            return Err(Error::invalid("method", "Rk45 took a step without stages"));
         };
         let s0 = &z.as_slice()[n..];
         // K₁: the last step's K₇ when k₁ is its k₇ (same inputs, same value), else fresh
@@ -287,7 +287,7 @@ where
             }
             // and the step's own error on the growing mode of S (the embedded estimate
             // misses it far outside the accuracy region)
-            let growth = crate::methods::dopri5::growth_error(h, &kk[6], &kk[5], &sy, &sy6);
+            let growth = crate::methods::rk45::growth_error(h, &kk[6], &kk[5], &sy, &sy6);
             let ratio = (sum / nm.max(1) as f64).sqrt().max(growth);
             if ratio > super::UNRESOLVED {
                 return Err(Error::SensitivityUnresolved { t, h, ratio });
@@ -299,7 +299,7 @@ where
         // S₁ = S₀ + h Σ bᵢ Kᵢ: the last stage argument (the last row of A is b)
         z.as_mut_slice()[n..].copy_from_slice(&sy);
         z.rows_mut(0, n).copy_from_slice(it.x().as_slice());
-        crate::system::finite(z.as_slice(), t + h, crate::error::Quantity::State)?;
+        crate::model::finite(z.as_slice(), t + h, crate::error::Quantity::State)?;
         // (dense is empty unless output times need it)
         if let [c0, c1, c2, c3, c4] = &mut dense[..] {
             for e in 0..z.len() {
@@ -327,7 +327,7 @@ where
     Ok(split.into_sensitivities(t, sens.wrt, np, stats, "rk45"))
 }
 
-/// `out = base + h·(a₀k₀ + a₁k₁ + …)`, summed left to right as Dopri5's kernel writes a
+/// `out = base + h·(a₀k₀ + a₁k₁ + …)`, summed left to right as Rk45's kernel writes a
 /// stage argument (so the same bits for `x`). The callers slice every argument to the
 /// length of `out`, which lets the compiler drop the bounds checks of the unrolled terms.
 #[inline(always)]

@@ -11,14 +11,14 @@
 //! the steps it took, integrating the augmented system gives exactly the derivative of the
 //! computed `x` with respect to `x₀` and `p` (internal differentiation: the method's
 //! stages are linear in `f`, so differentiating the step and stepping the variational
-//! system are the same computation) — for [`Dopri5`](crate::methods::Dopri5),
-//! [`ExplicitEuler`](crate::methods::ExplicitEuler) and [`Exact`](crate::methods::Exact)
+//! system are the same computation) — for [`Rk45`](crate::methods::Rk45),
+//! [`Euler`](crate::methods::Euler) and [`Exact`](crate::methods::Exact)
 //! to rounding; for [`Bdf`](crate::methods::Bdf) it is the derivative of the solution of
 //! the discrete implicit equations (the implicit function theorem), to the Newton
 //! tolerance, because Newton's iterate is not the exact root.
 //!
-//! **Dopri5: the staggered direct scheme.** Without `S` in the error control,
-//! [`Dopri5`](crate::methods::Dopri5) does not integrate the stacked state either: the
+//! **Rk45: the staggered direct scheme.** Without `S` in the error control,
+//! [`Rk45`](crate::methods::Rk45) does not integrate the stacked state either: the
 //! plain kernel takes every step at the model's own dimension (so `x`, the times and the
 //! step count are the plain solve's, bit for bit), and after each accepted step the
 //! stage sensitivities `Kᵢ = J(Yᵢ)·(S₀ + h Σ aᵢⱼ Kⱼ) + [0 | ∂f/∂p (Yᵢ)]` are evaluated at
@@ -51,28 +51,30 @@
 //! (tolerances repeated for each column).
 //!
 //! ```
-//! use reckon::{model, Options, Problem, methods::Dopri5, sensitivity::{self, SensitivityOptions}};
+//! use reckon::{model, Options, Problem, methods::Rk45, sensitivity::{self, SensitivityOptions}};
 //! use nalgebra::vector;
 //! // x' = −k·x: x(t) = x₀·e^{−kt}, ∂x/∂x₀ = e^{−kt}, ∂x/∂k = −t·x₀·e^{−kt}
 //! let f = model!(|_, x: [S; 1], p: [S; 1] = [0.5]| vector![-(p[0] * x[0])]);
 //! let p = Problem::new(&f, vector![2.0], (0.0, 3.0));
 //! let o = Options::default().rtol(1e-10).atol(1e-12);
-//! let sol = sensitivity::solve(&p, Dopri5::default(), &o, &SensitivityOptions::default()).unwrap();
+//! let sol = sensitivity::solve(&p, Rk45::default(), &o, &SensitivityOptions::default()).unwrap();
 //! let e = (-1.5f64).exp();
 //! assert!((sol.last_x()[0] - 2.0 * e).abs() < 1e-9);
 //! assert!((sol.wrt_x0(sol.t.len() - 1)[(0, 0)] - e).abs() < 1e-9);
 //! assert!((sol.wrt_params(sol.t.len() - 1)[(0, 0)] + 3.0 * 2.0 * e).abs() < 1e-8);
 //! ```
 
-use crate::control::Tolerance;
 use crate::error::{Error, Result};
 use crate::integrator::save::Store;
 use crate::linalg::LuDim;
-use crate::methods::{Dopri5, Exact, Flow, ImplicitEuler, Method};
-use crate::options::Options;
+use crate::methods::{Exact, ImplicitEuler, Method, Rk45};
+use crate::model::Stats;
+use crate::model::{DualFlow, Flow};
+use crate::model::{DualSystem, System};
 use crate::problem::Problem;
-use crate::solution::{Solution, Stats};
-use crate::system::{DualSystem, System};
+use crate::problem::options::Options;
+use crate::problem::options::Tolerance;
+use crate::problem::solution::Solution;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DMatrixView, DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, U1};
 use num_dual::{Derivative, DualVec64};
@@ -96,7 +98,7 @@ mod direct;
 /// last two stages show, which the embedded estimate misses far outside the accuracy
 /// region: at `hλ = 6.3` it reads under 10 % where the step is 41 % short) and the solve
 /// stops as soon as one step's estimate exceeds this bound, measured as
-/// [`Weights::uncontrolled`](crate::control::Weights::uncontrolled) does: the RMS of the
+/// [`Weights::uncontrolled`](crate::methods::step_size::Weights::uncontrolled) does: the RMS of the
 /// errors over the size of `S` (its largest entry, and at least `(|x_r| + atol)/p̄_k`,
 /// the natural size of `∂x_r/∂q_k` for a quantity of magnitude `p̄_k`: `|x₀_k|` or
 /// `|p_k|`, 1 where that is 0). On that example the worst step's estimate is 0.78
@@ -255,27 +257,6 @@ where
     }
 }
 
-/// A flow map that can also be evaluated at num-dual numbers, so that its derivative
-/// `∂φ_h/∂x` carries the sensitivities of [`Exact`] ([`solve`]).
-///
-/// ```
-/// use reckon::{methods::Flow, models::unicycle, sensitivity::DualFlow};
-/// use nalgebra::{vector, Vector3};
-/// use num_dual::{DualSVec64, Derivative};
-/// let x = vector![0.0, 0.0, 0.3];
-/// let xd: Vector3<DualSVec64<3>> = x.map_with_location(|i, _, v| DualSVec64::new(v, Derivative::derivative_generic(nalgebra::Const::<3>, nalgebra::U1, i)));
-/// let y = unicycle::ExactFlow.flow_dual(0.0, &xd, &[1.0, 0.0], 2.0);
-/// // straight line: ∂x₁/∂θ = −2 sin 0.3
-/// assert!((y[0].eps.unwrap_generic(nalgebra::Const::<3>, nalgebra::U1)[2] + 2.0 * 0.3f64.sin()).abs() < 1e-15);
-/// ```
-pub trait DualFlow<D: Dim>: Flow<D>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    /// `φ_h(t, x, u)` at dual `x` (derivative parts in `D`'s `n` directions).
-    fn flow_dual(&self, t: f64, x: &OVector<DualVec64<D>, D>, u: &[f64], h: f64) -> OVector<DualVec64<D>, D>;
-}
-
 /// The exact flow of the augmented system: `x₁ = φ_h(x₀)`, `S₁ = ∂φ_h/∂x (x₀)·S₀`.
 pub struct AugmentedFlow<D, F> {
     flow: F,
@@ -312,7 +293,7 @@ where
         );
         let o = out.as_mut_slice();
         o[..n].copy_from_slice(x1.as_slice());
-        crate::system::write_eps(&y, n, n, &mut o[n..]);
+        crate::model::write_eps(&y, n, n, &mut o[n..]);
     }
 }
 
@@ -358,7 +339,7 @@ macro_rules! augment_as_is {
 }
 
 augment_as_is!(
-    crate::methods::ExplicitEuler,
+    crate::methods::Euler,
     crate::methods::Bdf<Dyn>,
     crate::methods::Rodas5P<Dyn>,
     crate::methods::ExponentialEuler<Dyn>,
@@ -367,11 +348,11 @@ augment_as_is!(
 
 /// Dormand–Prince: the augmented system when the sensitivities are in the error control,
 /// otherwise the staggered direct scheme on the plain solve's steps ([`solve`]).
-impl<D: Dim> Augment<D> for Dopri5<Dyn>
+impl<D: Dim> Augment<D> for Rk45<Dyn>
 where
     DefaultAllocator: Allocator<D>,
 {
-    type Method = Dopri5<Dyn>;
+    type Method = Rk45<Dyn>;
     fn augment(self, _n: usize, _n_params: usize) -> Result<Self::Method> {
         Ok(self)
     }
@@ -419,7 +400,7 @@ where
     }
 }
 
-/// The scale `p̄_k` of each column of `S` ([`control::Weights::uncontrolled`](crate::control::Weights::uncontrolled)):
+/// The scale `p̄_k` of each column of `S` ([`control::Weights::uncontrolled`](crate::methods::step_size::Weights::uncontrolled)):
 /// `|x₀_k|` for the columns of `∂x/∂x₀`, `|p_k|` for a parameter's (1 where that is 0).
 pub(crate) fn column_scales(x0: &[f64], params: &[f64], wrt: Wrt) -> Vec<f64> {
     let x0 = if wrt == Wrt::All { x0 } else { &[] };
@@ -498,7 +479,7 @@ where
             .push(OVector::from_column_slice_generic(D::from_usize(self.n), U1, x));
         self.s.extend_from_slice(s);
     }
-    /// Element by element, the same operations as [`horner`](crate::solution::horner).
+    /// Element by element, the same operations as [`horner`](crate::problem::solution::horner).
     fn push_dense(&mut self, c: &[DVector<f64>], theta: f64) {
         let (last, rest) = c.split_last().expect("a dense polynomial has coefficients");
         let at = |e: usize| rest.iter().rev().fold(last[e], |y, cj| y * theta + cj[e]);
@@ -591,12 +572,12 @@ where
     /// [`Wrt::Params`]), a view into the run's one buffer.
     ///
     /// ```
-    /// use reckon::{model, Options, Problem, methods::ExplicitEuler, sensitivity::{self, SensitivityOptions}};
+    /// use reckon::{model, Options, Problem, methods::Euler, sensitivity::{self, SensitivityOptions}};
     /// use nalgebra::vector;
     /// // x' = −k·x, one explicit Euler step of h = 0.1: x₁ = (1 − hk)·x₀
     /// let f = model!(|_, x: [S; 1], p: [S; 1] = [2.0]| vector![-(p[0] * x[0])]);
     /// let p = Problem::new(&f, vector![3.0], (0.0, 0.1));
-    /// let sol = sensitivity::solve(&p, ExplicitEuler, &Options::default().fixed(0.1), &SensitivityOptions::default()).unwrap();
+    /// let sol = sensitivity::solve(&p, Euler, &Options::default().fixed(0.1), &SensitivityOptions::default()).unwrap();
     /// let s = sol.s(1);
     /// assert_eq!(s.shape(), (1, 2));
     /// // ∂x₁/∂x₀ = 1 − hk, ∂x₁/∂k = −h·x₀
@@ -635,14 +616,14 @@ where
 }
 
 /// Integrate `problem` with its sensitivities `S = ∂x/∂(x₀, p)` (see the module's doc):
-/// `method` is any method of [`crate::methods`] (`Dopri5::default()`, `Bdf::default()`, …,
+/// `method` is any method of [`crate::methods`] (`Rk45::default()`, `Bdf::default()`, …,
 /// inferred at `Dyn`) or `Exact::new(flow)` with a [`DualFlow`].
 ///
 /// Errors: those of the solve, and [`Error::InvalidInput`] for a problem with events (the
 /// event times' own sensitivities are not computed).
 ///
 /// ```
-/// use reckon::{methods::Exact, models::unicycle, sensitivity::{self, SensitivityOptions}, Options, Problem};
+/// use reckon::{methods::Exact, vehicles::unicycle, sensitivity::{self, SensitivityOptions}, Options, Problem};
 /// use nalgebra::vector;
 /// let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 2.0)).inputs(vec![1.0, 0.0]);
 /// let sol = sensitivity::solve(&p, Exact::new(unicycle::ExactFlow), &Options::default(), &SensitivityOptions::default()).unwrap();

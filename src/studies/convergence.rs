@@ -3,7 +3,7 @@
 use super::{MethodKind, drive, fit_order};
 use crate::error::{Error, Result};
 use crate::linalg::LuDim;
-use crate::methods::Flow;
+use crate::model::Flow;
 use crate::{Options, Problem, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};

@@ -3,14 +3,15 @@
 //! them into CSV, SVG and HTML.
 
 pub mod convergence;
-pub mod spectral;
+pub mod problems;
 pub mod stability;
 pub mod stiffness;
 pub mod work_precision;
 
 use crate::error::{Error, Result};
 use crate::linalg::LuDim;
-use crate::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, ExponentialEuler, Flow, ImplicitEuler, Method, Rodas5P};
+use crate::methods::{Auto, Bdf, Euler, Exact, ExponentialEuler, ImplicitEuler, Method, Rk45, Rodas5P};
+use crate::model::Flow;
 use crate::{Options, Problem, Solution, Stats, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -54,7 +55,7 @@ pub enum MethodKind {
     Bdf,
     /// Rosenbrock method Rodas5P.
     Rodas5P,
-    /// Dopri5 ⇄ BDF by stiffness detection (adaptive runs only).
+    /// Rk45 ⇄ BDF by stiffness detection (adaptive runs only).
     Auto,
     /// Exponential Rosenbrock–Euler.
     ExponentialEuler,
@@ -111,10 +112,8 @@ impl std::str::FromStr for MethodKind {
             .into_iter()
             .find(|m| m.name() == s.trim())
             .ok_or_else(|| {
-                Error::invalid(
-                    "method",
-                    format!("'{s}' is not one of euler, implicit-euler, rk45, exact, bdf, rodas5p, auto"),
-                )
+                let names: Vec<&str> = MethodKind::ALL.iter().map(|m| m.name()).collect();
+                Error::invalid("method", format!("'{s}' is not one of {}", names.join(", ")))
             })
     }
 }
@@ -144,9 +143,9 @@ where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
     match kind {
-        MethodKind::Euler => problem.solve(ExplicitEuler, opts),
+        MethodKind::Euler => problem.solve(Euler, opts),
         MethodKind::ImplicitEuler => problem.solve(ImplicitEuler::default(), opts),
-        MethodKind::Rk45 => problem.solve(Dopri5::default(), opts),
+        MethodKind::Rk45 => problem.solve(Rk45::default(), opts),
         MethodKind::Bdf => problem.solve(Bdf::default(), opts),
         MethodKind::Rodas5P => problem.solve(Rodas5P::default(), opts),
         MethodKind::Auto => problem.solve(Auto::default(), opts),
@@ -202,9 +201,9 @@ where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
     match kind {
-        MethodKind::Euler => drive_method(problem, ExplicitEuler, opts, visit),
+        MethodKind::Euler => drive_method(problem, Euler, opts, visit),
         MethodKind::ImplicitEuler => drive_method(problem, ImplicitEuler::default(), opts, visit),
-        MethodKind::Rk45 => drive_method(problem, Dopri5::default(), opts, visit),
+        MethodKind::Rk45 => drive_method(problem, Rk45::default(), opts, visit),
         MethodKind::Bdf => drive_method(problem, Bdf::default(), opts, visit),
         MethodKind::Rodas5P => drive_method(problem, Rodas5P::default(), opts, visit),
         MethodKind::Auto => drive_method(problem, Auto::default(), opts, visit),
@@ -213,5 +212,38 @@ where
             Some(f) => drive_method(problem, Exact::new(DynFlow(f)), opts, visit),
             None => Err(Error::invalid("method", "this problem has no exact flow")),
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::U1;
+
+    fn name<M: Method<U1>>(m: M) -> &'static str {
+        m.name()
+    }
+
+    /// One name per method: the type's `name()` (tables, errors, switches) is the
+    /// command's name, and every name parses back.
+    #[test]
+    fn one_name_per_method() {
+        let identity = |_t: f64, x: &OVector<f64, U1>, _u: &[f64], _h: f64| *x;
+        for k in MethodKind::ALL {
+            let got = match k {
+                MethodKind::Euler => name(Euler),
+                MethodKind::ImplicitEuler => name(ImplicitEuler::default()),
+                MethodKind::Rk45 => name(Rk45::default()),
+                MethodKind::Exact => name(Exact::new(identity)),
+                MethodKind::Bdf => name(Bdf::default()),
+                MethodKind::Rodas5P => name(Rodas5P::default()),
+                MethodKind::Auto => name(Auto::default()),
+                MethodKind::ExponentialEuler => name(ExponentialEuler::default()),
+            };
+            assert_eq!(got, k.name());
+            assert_eq!(k.name().parse::<MethodKind>().unwrap(), k);
+        }
+        let e = "dopri5".parse::<MethodKind>().unwrap_err().to_string();
+        assert!(e.contains("exponential-euler") && e.contains("rodas5p"), "{e}");
     }
 }

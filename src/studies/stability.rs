@@ -2,7 +2,7 @@
 //! when `|R(z)| ≤ 1`.
 
 use crate::error::{Error, Result};
-use crate::methods::ExplicitEuler;
+use crate::methods::Euler;
 use crate::{Options, Problem};
 use nalgebra::vector;
 use num_complex::Complex64;
@@ -11,11 +11,11 @@ use num_complex::Complex64;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub enum StabilityOf {
     /// `R(z) = 1 + z`: the disk of radius 1 around −1.
-    ExplicitEuler,
+    Euler,
     /// `R(z) = 1/(1 − z)`: everything outside the disk of radius 1 around +1.
     ImplicitEuler,
     /// `R(z) = Σ_{k≤5} z^k/k! + z⁶/600` (Dormand–Prince 5).
-    Dopri5,
+    Rk45,
 }
 
 /// The stability function `R(z)`.
@@ -23,15 +23,15 @@ pub enum StabilityOf {
 /// ```
 /// use reckon::studies::stability::{amplification, StabilityOf};
 /// use num_complex::Complex64;
-/// assert_eq!(amplification(StabilityOf::ExplicitEuler, Complex64::new(-2.0, 0.0)).norm(), 1.0);
+/// assert_eq!(amplification(StabilityOf::Euler, Complex64::new(-2.0, 0.0)).norm(), 1.0);
 /// assert_eq!(amplification(StabilityOf::ImplicitEuler, Complex64::new(-1.0, 0.0)).re, 0.5);
 /// ```
 pub fn amplification(m: StabilityOf, z: Complex64) -> Complex64 {
     let one = Complex64::new(1.0, 0.0);
     match m {
-        StabilityOf::ExplicitEuler => one + z,
+        StabilityOf::Euler => one + z,
         StabilityOf::ImplicitEuler => one / (one - z),
-        StabilityOf::Dopri5 => {
+        StabilityOf::Rk45 => {
             // Horner: 1 + z(1 + z(1/2 + z(1/6 + z(1/24 + z(1/120 + z/600)))))
             let c = [1.0, 1.0, 0.5, 1.0 / 6.0, 1.0 / 24.0, 1.0 / 120.0, 1.0 / 600.0];
             c.iter().rev().fold(Complex64::new(0.0, 0.0), |acc, &ck| acc * z + ck)
@@ -44,7 +44,7 @@ pub fn amplification(m: StabilityOf, z: Complex64) -> Complex64 {
 ///
 /// ```
 /// use reckon::studies::stability::{real_axis_limit, StabilityOf};
-/// assert!((real_axis_limit(StabilityOf::Dopri5) + 3.3065678926349467).abs() < 1e-12);
+/// assert!((real_axis_limit(StabilityOf::Rk45) + 3.3065678926349467).abs() < 1e-12);
 /// ```
 pub fn real_axis_limit(m: StabilityOf) -> f64 {
     if m == StabilityOf::ImplicitEuler {
@@ -113,7 +113,7 @@ pub fn euler_threshold(lambda: f64, n: usize) -> Result<f64> {
     let f = crate::model!(|_t, x: [S; 1]| vector![x[0] * lambda]);
     let grows = |h: f64| -> Result<bool> {
         let p = Problem::new(&f, vector![1.0], (0.0, n as f64 * h));
-        let sol = p.solve(ExplicitEuler, &Options::default().fixed(h).dense(false))?;
+        let sol = p.solve(Euler, &Options::default().fixed(h).dense(false))?;
         Ok(sol.last().1[0].abs() > 1.0)
     };
     let (mut lo, mut hi) = (1e-6 / lambda.abs(), 10.0 / lambda.abs());

@@ -1,11 +1,12 @@
 //! Step-size behaviour on stiff problems and the stiffness ratio along a solution.
 
 use crate::error::{Error, Quantity, Result};
+use crate::jacobian::SparseJacobian;
+use crate::linalg::arnoldi::{SpectralOptions, SpectralWorkspace, sparse_spectrum_with};
 use crate::methods::Method;
-use crate::solution::{Solution, Stats, Stiffness};
-use crate::sparse::SparseJacobian;
-use crate::studies::spectral::{SpectralOptions, SpectralWorkspace, sparse_spectrum_with};
-use crate::system::System;
+use crate::model::Stats;
+use crate::model::System;
+use crate::problem::solution::{Solution, Stiffness};
 use crate::{Options, Problem};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DefaultAllocator, Dim, OMatrix};
@@ -40,11 +41,11 @@ pub struct StepHistory {
 ///
 /// ```
 /// use reckon::studies::stiffness::history;
-/// use reckon::methods::Dopri5;
-/// use reckon::{problems::van_der_pol, Error, Options, Problem};
+/// use reckon::methods::Rk45;
+/// use reckon::{studies::problems::van_der_pol, Error, Options, Problem};
 /// use nalgebra::vector;
 /// let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 2000.0));
-/// let h = history(&p, Dopri5::default(), &Options::default().rtol(1e-4).atol(1e-7).max_steps(5000));
+/// let h = history(&p, Rk45::default(), &Options::default().rtol(1e-4).atol(1e-7).max_steps(5000));
 /// assert!(matches!(h.stopped_by, Some(Error::MaxSteps { steps: 5000, .. })));
 /// // the verdict survives the error: DOPRI5's test fired on the slow branch
 /// let st = h.stiffness.unwrap();
@@ -183,7 +184,7 @@ pub struct StiffnessPoint {
 /// ```
 /// use reckon::studies::stiffness::{stiffness_along, DP5_LIMIT};
 /// use reckon::methods::ImplicitEuler;
-/// use reckon::{problems::stiff_cosine, Options, Problem};
+/// use reckon::{studies::problems::stiff_cosine, Options, Problem};
 /// use nalgebra::vector;
 /// let p = Problem::new(stiff_cosine(), vector![1.0], (0.0, 1.0));
 /// let sol = p.solve(ImplicitEuler::default(), &Options::default().fixed(0.01)).unwrap();
@@ -354,10 +355,10 @@ fn sparse_point(
 /// its cap [`Error::NoConvergence`].
 ///
 /// ```
-/// use reckon::studies::spectral::SpectralOptions;
+/// use reckon::linalg::arnoldi::SpectralOptions;
 /// use reckon::studies::stiffness::{stiffness_along, stiffness_along_sparse};
 /// use reckon::methods::ImplicitEuler;
-/// use reckon::problems::{brusselator, brusselator_y0};
+/// use reckon::studies::problems::{brusselator, brusselator_y0};
 /// use reckon::{Options, Problem};
 /// let p = Problem::new(brusselator(20), brusselator_y0(20), (0.0, 1.0));
 /// let sol = p.solve(ImplicitEuler::default(), &Options::default().fixed(0.1)).unwrap();
@@ -412,10 +413,10 @@ where
 /// Returns the points and `k`. `inputs` are the held inputs the Jacobian is taken at.
 ///
 /// ```
-/// use reckon::studies::spectral::SpectralOptions;
+/// use reckon::linalg::arnoldi::SpectralOptions;
 /// use reckon::studies::stiffness::sampled_stiffness;
 /// use reckon::methods::ImplicitEuler;
-/// use reckon::problems::{brusselator, brusselator_y0};
+/// use reckon::studies::problems::{brusselator, brusselator_y0};
 /// use reckon::{Options, Problem};
 /// let p = Problem::new(brusselator(200), brusselator_y0(200), (0.0, 1.0));
 /// let opts = Options::default().rtol(1e-3).atol(1e-6);

@@ -4,7 +4,7 @@ use super::convergence::{DEFAULT_MAX_STEPS, steps_needed};
 use super::{MethodKind, drive};
 use crate::error::{Error, Result};
 use crate::linalg::LuDim;
-use crate::methods::Flow;
+use crate::model::Flow;
 use crate::{Options, Problem, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};

@@ -10,7 +10,7 @@
 
 use super::graph::{Func, Graph, Node};
 use super::jit::{Layout, Native};
-use crate::sparse::{Pattern, SparseJacobian};
+use crate::jacobian::{Pattern, SparseJacobian};
 use std::collections::HashMap;
 use std::sync::Arc;
 
@@ -418,7 +418,7 @@ impl Program {
 /// bit. [`interpreted`](Self::interpreted) drops it, [`is_native`](Self::is_native) tells.
 ///
 /// ```
-/// use reckon::{model, symbolic, sparse::SparseJacobian};
+/// use reckon::{model, symbolic, jacobian::SparseJacobian};
 /// use nalgebra::vector;
 /// let f = model!(|_, x: [S; 2]| vector![x[1].clone(), -x[0].sin()]);
 /// let mut jac = symbolic::trace(&f, 2).unwrap().compile_jacobian();
@@ -586,7 +586,7 @@ impl SparseJacobian for CompiledJacobian {
         &self.pattern
     }
     fn eval(&mut self, t: f64, x: &[f64], u: &[f64], values: &mut [f64]) -> crate::Result<()> {
-        crate::sparse::check_values(values, self.pattern.nnz())?;
+        crate::jacobian::check_values(values, self.pattern.nnz())?;
         if self.native(0, t, x, u, values) {
             return Ok(());
         }

@@ -21,7 +21,7 @@
 //!   the same bits faster than num-dual.
 //!
 //! ```
-//! use reckon::{models::unicycle, symbolic};
+//! use reckon::{vehicles::unicycle, symbolic};
 //! let j = symbolic::trace(&unicycle::model(), 3).unwrap().with_names(&["x", "y", "θ"], &["v", "ω"]);
 //! assert_eq!(j.jacobian_text(), "∂ẋ/∂θ = −v·sin(θ)\n∂ẏ/∂θ = v·cos(θ)\n");
 //! assert_eq!(j.pattern().nnz(), 2);
@@ -71,7 +71,7 @@ pub use graph::Func;
 pub use sym::{Sym, plain_time};
 
 use crate::error::{Error, Result};
-use crate::sparse::Pattern;
+use crate::jacobian::Pattern;
 use graph::{Graph, Node};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector, U1};
@@ -738,7 +738,7 @@ impl Traced {
     /// reads the time symbol), each a `pmatrix`.
     ///
     /// ```
-    /// use reckon::{models::unicycle, symbolic};
+    /// use reckon::{vehicles::unicycle, symbolic};
     /// let tr = symbolic::trace(&unicycle::model(), 3).unwrap().with_names(&["x", "y", "θ"], &["v", "ω"]);
     /// let l = tr.latex();
     /// assert!(l.contains("\\frac{\\partial f}{\\partial x} &= \\begin{pmatrix}\n0 & 0 & -v \\, \\sin \\theta"));
@@ -772,7 +772,7 @@ impl Traced {
     /// the font stack the fences need to stretch named on the element.
     ///
     /// ```
-    /// use reckon::{models::unicycle, symbolic};
+    /// use reckon::{vehicles::unicycle, symbolic};
     /// let tr = symbolic::trace(&unicycle::model(), 3).unwrap().with_names(&["x", "y", "θ"], &["v", "ω"]);
     /// let m = tr.mathml();
     /// assert!(m.starts_with("<math") && m.ends_with("</math>"));

@@ -3,8 +3,8 @@
 //! jumps, and typed failures.
 
 use nalgebra::{SVector, Vector1, Vector2, vector};
-use reckon::methods::{Bdf, Dopri5, ImplicitEuler};
-use reckon::problems::*;
+use reckon::methods::{Bdf, ImplicitEuler, Rk45};
+use reckon::studies::problems::*;
 use reckon::{Controls, Error, Options, Problem, System, model};
 
 /// Least-squares slope of log(err) against log(h).
@@ -230,10 +230,7 @@ fn dense_output_between_steps() {
         .solve(Bdf::default(), &Options::default().rtol(1e-8).atol(1e-8).dense(true))
         .unwrap();
     let r = p
-        .solve(
-            Dopri5::default(),
-            &Options::default().rtol(1e-13).atol(1e-13).dense(true),
-        )
+        .solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-13).dense(true))
         .unwrap();
     let (mut ends, mut mid) = (0.0f64, 0.0f64);
     for i in 1..sol.t.len() {

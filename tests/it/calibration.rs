@@ -6,7 +6,7 @@ use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
 use reckon::Error;
 use reckon::calibration::{censi, umbmark};
-use reckon::reckoning::{drift, encoders::DiffDrive, errors::EncoderErrors};
+use reckon::reckoning::{drift, encoder_sim::EncoderErrors, encoders::DiffDrive};
 
 fn xy(v: Vector3<f64>) -> Vector2<f64> {
     v.fixed_rows::<2>(0).into_owned()

@@ -4,14 +4,14 @@
 
 use nalgebra::{Const, Vector4, vector};
 use proptest::prelude::*;
-use reckon::methods::{Dopri5, Exact};
-use reckon::models::{bicycle, carlike};
+use reckon::methods::{Exact, Rk45};
+use reckon::vehicles::{bicycle, carlike};
 use reckon::{Controls, Error, Options, Problem, Solution, System};
 
 const L: f64 = 2.5;
 
 fn rk45<S: System<Const<4>>>(p: &Problem<'_, Const<4>, S>) -> Solution<Const<4>> {
-    p.solve(Dopri5::default(), &Options::default().rtol(1e-13).atol(1e-13))
+    p.solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-13))
         .unwrap()
 }
 

@@ -1,10 +1,10 @@
 //! Observed order by least-squares slope over ≥ 4 step sizes, against exact solutions.
 
 use nalgebra::{Const, SVector, vector};
-use reckon::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler, Method};
-use reckon::models::unicycle;
-use reckon::problems::*;
+use reckon::methods::{Euler, Exact, ImplicitEuler, Method, Rk45};
 use reckon::studies::fit_order;
+use reckon::studies::problems::*;
+use reckon::vehicles::unicycle;
 use reckon::{Controls, Options, Problem, System};
 
 fn final_error<const N: usize, S, M>(
@@ -54,9 +54,9 @@ fn rotation_decay_orders() {
     let p = Problem::new(rotation_decay(), x0, (0.0, 2.0));
     let exact = rotation_decay_exact(2.0, &x0);
     let hs = halvings(1.0 / 64.0, 5);
-    assert_order(order(&p, || ExplicitEuler, &hs, &exact), 1.0, "explicit Euler");
+    assert_order(order(&p, || Euler, &hs, &exact), 1.0, "explicit Euler");
     assert_order(order(&p, ImplicitEuler::default, &hs, &exact), 1.0, "implicit Euler");
-    assert_order(order(&p, Dopri5::default, &halvings(0.2, 5), &exact), 5.0, "DP5");
+    assert_order(order(&p, Rk45::default, &halvings(0.2, 5), &exact), 5.0, "DP5");
 }
 
 #[test]
@@ -64,9 +64,9 @@ fn sin_u_orders() {
     let p = Problem::new(sin_u(), vector![0.5], (0.0, 5.0));
     let exact = sin_u_exact(5.0, 0.5);
     let hs = halvings(1.0 / 64.0, 5);
-    assert_order(order(&p, || ExplicitEuler, &hs, &exact), 1.0, "explicit Euler");
+    assert_order(order(&p, || Euler, &hs, &exact), 1.0, "explicit Euler");
     assert_order(order(&p, ImplicitEuler::default, &hs, &exact), 1.0, "implicit Euler");
-    assert_order(order(&p, Dopri5::default, &halvings(0.5, 5), &exact), 5.0, "DP5");
+    assert_order(order(&p, Rk45::default, &halvings(0.5, 5), &exact), 5.0, "DP5");
 }
 
 /// Held inputs over four one-second intervals; each method must reach its order on
@@ -94,7 +94,7 @@ fn unicycle_held_inputs_orders() {
     let exact = *exact_sol.last().1;
     // steps that do not divide the intervals: breakpoints must still be landed on
     let hs: Vec<f64> = halvings(0.3 / 8.0, 5);
-    assert_order(order(&p, || ExplicitEuler, &hs, &exact), 1.0, "explicit Euler");
+    assert_order(order(&p, || Euler, &hs, &exact), 1.0, "explicit Euler");
     assert_order(order(&p, ImplicitEuler::default, &hs, &exact), 1.0, "implicit Euler");
-    assert_order(order(&p, Dopri5::default, &halvings(0.3, 4), &exact), 5.0, "DP5");
+    assert_order(order(&p, Rk45::default, &halvings(0.3, 4), &exact), 5.0, "DP5");
 }

@@ -2,8 +2,8 @@
 
 use nalgebra::Vector3;
 use reckon::reckoning::drift::*;
+use reckon::reckoning::encoder_sim::EncoderErrors;
 use reckon::reckoning::encoders::DiffDrive;
-use reckon::reckoning::errors::EncoderErrors;
 use std::f64::consts::{FRAC_PI_2, PI};
 
 fn robot() -> DiffDrive {

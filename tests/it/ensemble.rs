@@ -9,9 +9,9 @@ use rand_distr::{Distribution, StandardNormal};
 use reckon::ensemble::encoder::EncoderEnsemble;
 use reckon::ensemble::stats::chi2_interval;
 use reckon::ensemble::{Ensemble, ExactSum, Layout, Moments, Shard, Sketch, Statistics, member_seed};
-use reckon::methods::Dopri5;
+use reckon::methods::Rk45;
+use reckon::reckoning::encoder_sim::{Command, EncoderErrors};
 use reckon::reckoning::encoders::DiffDrive;
-use reckon::reckoning::errors::{Command, EncoderErrors};
 use reckon::{Error, Options, Problem, Save, model};
 
 #[test]
@@ -311,7 +311,7 @@ fn a_linear_systems_ensemble_has_the_propagated_mean_and_covariance() {
         .solve(&layout, |m| {
             let rng = m.rng();
             let z = Vector2::new(StandardNormal.sample(rng), StandardNormal.sample(rng));
-            Problem::new(&f, m0 + l0 * z, (0.0, 5.0)).solve(Dopri5::default(), &opts)
+            Problem::new(&f, m0 + l0 * z, (0.0, 5.0)).solve(Rk45::default(), &opts)
         })
         .unwrap();
     let nf = n as f64;

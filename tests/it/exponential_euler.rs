@@ -2,9 +2,9 @@
 //! step, stable on stiff ones, and an adaptive mode whose error follows the tolerance.
 
 use nalgebra::{Const, SVector, vector};
-use reckon::methods::{ExplicitEuler, ExponentialEuler, Method};
-use reckon::problems::*;
+use reckon::methods::{Euler, ExponentialEuler, Method};
 use reckon::studies::fit_order;
+use reckon::studies::problems::*;
 use reckon::{Lti, Options, Problem, System, model};
 
 fn end_error<const N: usize, S: System<Const<N>>>(
@@ -98,7 +98,7 @@ fn stable_on_the_stiff_cosine_problem() {
     // h²·|g''|/(2·1000) ≤ 5e-3 (without ∂f/∂t it would be h·|g'|/1000 ≈ 0.1)
     assert!(worst < 5.1e-3, "max error {worst:e}");
     // explicit Euler at the same step blows up
-    let e = p.solve(ExplicitEuler, &Options::default().fixed(0.1));
+    let e = p.solve(Euler, &Options::default().fixed(0.1));
     assert!(e.is_err() || e.unwrap().last().1[0].abs() > 1e10);
 }
 
@@ -111,7 +111,7 @@ fn adaptive_error_follows_the_tolerance() {
     let p = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 5.0));
     let reference = *p
         .solve(
-            reckon::methods::Dopri5::default(),
+            reckon::methods::Rk45::default(),
             &Options::default().rtol(1e-13).atol(1e-13),
         )
         .unwrap()

@@ -4,8 +4,8 @@
 //! whole sweep, rtol = 10^(−k/4) for k = 4 … 48, is `examples/tolerance_sweep.rs`.
 
 use nalgebra::{SVector, vector};
-use reckon::methods::{Auto, Bdf, Dopri5, ImplicitEuler, Rodas5P};
-use reckon::problems::*;
+use reckon::methods::{Auto, Bdf, ImplicitEuler, Rk45, Rodas5P};
+use reckon::studies::problems::*;
 use reckon::{Controls, DualSystem, Error, Options, Problem};
 
 /// The Test Set driver's mixed significant digits, `−log₁₀ max_i |y_i − r_i|/(atol_i/rtol + |r_i|)`.
@@ -179,7 +179,7 @@ fn non_finite_trial_states_are_rejected_not_fatal() {
     for e in [
         p.solve(Rodas5P::default(), &o).unwrap_err(),
         p.solve(Bdf::default(), &o).unwrap_err(),
-        p.solve(Dopri5::default(), &o).unwrap_err(),
+        p.solve(Rk45::default(), &o).unwrap_err(),
     ] {
         assert!(matches!(e, Error::NonFinite { t, .. } if t == 0.0), "{e}");
     }
@@ -210,7 +210,7 @@ fn robertson_concentrations_do_not_cross_zero_against_the_field() {
 /// next row's inputs up to 0.06 s early: 0.07 m off after 200 rows, 7 m in the CLI).
 #[test]
 fn bdf_far_from_the_epoch_origin_streams_the_same_steps() {
-    use reckon::models::unicycle;
+    use reckon::vehicles::unicycle;
     let n = 200;
     let run = |t0: f64, solve: bool| {
         let times: Vec<f64> = (0..=n).map(|k| t0 + k as f64).collect();

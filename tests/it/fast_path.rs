@@ -5,8 +5,8 @@
 
 use nalgebra::{Vector3, vector};
 use reckon::error::Quantity;
-use reckon::methods::{Exact, ExplicitEuler, Method};
-use reckon::models::unicycle;
+use reckon::methods::{Euler, Exact, Method};
+use reckon::vehicles::unicycle;
 use reckon::{Controls, Error, Event, Options, Problem, Save, Solution, model};
 
 const N: usize = 10_000;
@@ -105,7 +105,7 @@ fn fixed_step_euler_fast_path_equals_the_general_path() {
     let sys = unicycle::model();
     let p = Problem::new(&sys, vector![0.1, -0.2, 0.3], (0.0, t_end)).controls(c);
     for h in [0.01, 0.0037, 1.0] {
-        let (f, g, s) = both(&p, ExplicitEuler, &Options::default().fixed(h));
+        let (f, g, s) = both(&p, Euler, &Options::default().fixed(h));
         same(&f, &g);
         assert_eq!(s.len(), f.t.len());
         assert!(s.iter().zip(&f.x).all(|(a, b)| a.1 == *b));
@@ -132,7 +132,7 @@ fn regular_logs_on_and_off_the_step_grid_agree_with_the_general_path() {
         let c = Controls::new(times, values).unwrap();
         let t_end = n as f64 * dt;
         let p = Problem::new(&sys, vector![0.1, -0.2, 0.3], (0.0, t_end)).controls(c);
-        let (f, g, s) = both(&p, ExplicitEuler, &Options::default().fixed(h));
+        let (f, g, s) = both(&p, Euler, &Options::default().fixed(h));
         same(&f, &g);
         assert_eq!(s.len(), f.t.len());
         assert!(s.iter().zip(&f.x).all(|(a, b)| a.1 == *b));
@@ -168,7 +168,7 @@ fn checked_runs_of_a_log_at_the_step_rate_are_the_general_paths() {
     let c = Controls::new(times.clone(), values).unwrap();
     for (t0, t_end) in [(0.0, N as f64 * h), (0.0, 77.77), (12.345, 99.995), (0.0, times[n - 1])] {
         let p = Problem::new(&sys, vector![0.1, -0.2, 0.3], (t0, t_end)).controls(c.clone());
-        let (f, g, s) = both(&p, ExplicitEuler, &Options::default().fixed(h));
+        let (f, g, s) = both(&p, Euler, &Options::default().fixed(h));
         same(&f, &g);
         assert_eq!(s.len(), f.t.len());
         assert!(
@@ -198,7 +198,7 @@ fn backwards_and_from_a_late_start_the_paths_agree() {
     assert_eq!(f.last().0, a);
     // a span that starts inside an interval
     let p = Problem::new(&sys, vector![0.0, 0.0, 0.0], (a + 12.3456, b)).controls(c);
-    let (f, g, _) = both(&p, ExplicitEuler, &Options::default().fixed(0.02));
+    let (f, g, _) = both(&p, Euler, &Options::default().fixed(0.02));
     same(&f, &g);
 }
 
@@ -225,8 +225,8 @@ fn errors_on_the_fast_path_are_the_general_paths() {
     );
     // the step limit per interval
     let o = Options::default().fixed(1e-4).max_steps(50);
-    let fast = q.solve(ExplicitEuler, &o).unwrap_err();
-    let mut it = q.integrator(ExplicitEuler, &o).unwrap();
+    let fast = q.solve(Euler, &o).unwrap_err();
+    let mut it = q.integrator(Euler, &o).unwrap();
     let general = loop {
         match it.step() {
             Ok(Some(_)) => {}
@@ -305,7 +305,7 @@ proptest::proptest! {
                     p.solve(Exact::new(unicycle::flow), &merged_opts).unwrap(),
                 )
             } else {
-                (p.solve(ExplicitEuler, &opts).unwrap(), p.solve(ExplicitEuler, &merged_opts).unwrap())
+                (p.solve(Euler, &opts).unwrap(), p.solve(Euler, &merged_opts).unwrap())
             };
             same(&fast, &merged);
             if method_is_exact {
@@ -355,7 +355,7 @@ fn every_exit_after_an_odd_and_an_even_number_of_steps_is_the_general_paths() {
                 assert_eq!(f.stats.accepted as usize, stops + 1 - 2, "skip {skip}, t_end {t_end}");
                 for h in [0.5, 1.0] {
                     let o = opts.clone().fixed(h);
-                    let (f, g, s) = both(&p, ExplicitEuler, &o);
+                    let (f, g, s) = both(&p, Euler, &o);
                     same(&f, &g);
                     assert!(s.iter().zip(&f.x).all(|(a, b)| a.1 == *b));
                 }
@@ -386,16 +386,16 @@ fn every_exit_after_an_odd_and_an_even_number_of_steps_is_the_general_paths() {
                 ]);
                 let q = Problem::new(&g, vector![0.1, -0.2, 0.3], (-50.0, t_end)).controls(c.clone());
                 let o = Options::default().fixed(0.5);
-                let fast = q.solve(ExplicitEuler, &o).unwrap_err();
-                let general = with_idle_event(&q).solve(ExplicitEuler, &o).unwrap_err();
+                let fast = q.solve(Euler, &o).unwrap_err();
+                let general = with_idle_event(&q).solve(Euler, &o).unwrap_err();
                 assert_eq!(fast, general);
                 assert!(matches!(fast, Error::NonFinite { component: 0, .. }), "{fast}");
             }
             // the step limit, reached in an odd and in an even step of one interval
             for limit in [3, 4] {
                 let o = Options::default().fixed(1e-3).max_steps(limit);
-                let fast = p.solve(ExplicitEuler, &o).unwrap_err();
-                let mut it = p.integrator(ExplicitEuler, &o).unwrap();
+                let fast = p.solve(Euler, &o).unwrap_err();
+                let mut it = p.integrator(Euler, &o).unwrap();
                 let general = loop {
                     match it.step() {
                         Ok(Some(_)) => {}
@@ -427,9 +427,7 @@ fn solve_after_steps_by_hand_is_the_general_paths() {
     let general_p = with_idle_event(&fast_p);
     // every time, stepped by hand
     let all: Vec<f64> = {
-        let mut it = fast_p
-            .integrator(ExplicitEuler, &Options::default().fixed(1e-4))
-            .unwrap();
+        let mut it = fast_p.integrator(Euler, &Options::default().fixed(1e-4)).unwrap();
         std::iter::once(0.0)
             .chain(std::iter::from_fn(|| it.step().unwrap()))
             .collect()
@@ -437,7 +435,7 @@ fn solve_after_steps_by_hand_is_the_general_paths() {
     for (taken, limit) in [(0, 100_000), (7, 100_000), (250, 100_000), (29, 30), (30, 30), (3, 30)] {
         let o = Options::default().fixed(1e-4).max_steps(limit);
         let run = |p: &Problem<'_, Sys, _>| {
-            let mut it = p.integrator(ExplicitEuler, &o).unwrap();
+            let mut it = p.integrator(Euler, &o).unwrap();
             for _ in 0..taken {
                 it.step().unwrap().unwrap();
             }
@@ -494,10 +492,7 @@ fn inputs_set_by_hand_then_solve_is_the_general_paths() {
     for set in [true, false] {
         let (f, g) = (run(&fast_p, flow(), &exact, set), run(&general_p, flow(), &exact, set));
         same(&f, &g);
-        let (f, g) = (
-            run(&fast_p, ExplicitEuler, &euler, set),
-            run(&general_p, ExplicitEuler, &euler, set),
-        );
+        let (f, g) = (run(&fast_p, Euler, &euler, set), run(&general_p, Euler, &euler, set));
         same(&f, &g);
     }
     // the inputs set are the ones used: after three steps (three intervals of the log)
@@ -568,7 +563,7 @@ fn runs_on_the_grid_of_every_length_broken_every_way_are_the_general_paths() {
         (&late, opts.clone()),
         (&off, opts.clone()),
     ] {
-        let (f, g, s) = both(p, ExplicitEuler, &o);
+        let (f, g, s) = both(p, Euler, &o);
         same(&f, &g);
         if o.save == Save::default() {
             assert_eq!(s.len(), f.t.len());
@@ -584,7 +579,7 @@ fn runs_on_the_grid_of_every_length_broken_every_way_are_the_general_paths() {
         same(&f, &g);
     }
     // one step per grid interval, one more for each stop the grid test puts off the grid
-    let f = fwd.solve(ExplicitEuler, &opts).unwrap();
+    let f = fwd.solve(Euler, &opts).unwrap();
     assert_eq!(f.stats.accepted as usize, m + extra_steps);
     assert!(times.iter().all(|t| f.t.contains(t)));
     // a derivative that overflows with one row's input: inside a run, at its edges
@@ -596,8 +591,8 @@ fn runs_on_the_grid_of_every_length_broken_every_way_are_the_general_paths() {
             x[0] * 0.0 + u[1]
         ]);
         let q = Problem::new(&g, x0, (0.0, t_end)).controls(c.clone());
-        let fast = q.solve(ExplicitEuler, &opts).unwrap_err();
-        let general = with_idle_event(&q).solve(ExplicitEuler, &opts).unwrap_err();
+        let fast = q.solve(Euler, &opts).unwrap_err();
+        let general = with_idle_event(&q).solve(Euler, &opts).unwrap_err();
         assert_eq!(fast, general);
         assert!(matches!(fast, Error::NonFinite { component: 0, .. }), "{fast}");
     }
@@ -635,7 +630,7 @@ fn stretches_of_a_log_off_the_grid_ending_anywhere_are_the_general_paths() {
                 Options::default().fixed(0.5),
                 Options::default().fixed(0.5).breakpoints([-3.0]),
             ] {
-                let (f, g, s) = both(&p, ExplicitEuler, &opts);
+                let (f, g, s) = both(&p, Euler, &opts);
                 same(&f, &g);
                 assert_eq!(s.len(), f.t.len());
                 assert!(s.iter().zip(&f.x).all(|(a, b)| a.1 == *b));

@@ -10,9 +10,9 @@
 
 use crate::common::golden::golden;
 use nalgebra::{SVector, vector};
-use reckon::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, ExponentialEuler, ImplicitEuler, Method, Rodas5P};
-use reckon::models::unicycle;
-use reckon::problems::*;
+use reckon::methods::{Auto, Bdf, Euler, Exact, ExponentialEuler, ImplicitEuler, Method, Rk45, Rodas5P};
+use reckon::studies::problems::*;
+use reckon::vehicles::unicycle;
 use reckon::{Controls, DualSystem, Options, Problem};
 use std::fmt::Write;
 
@@ -75,7 +75,7 @@ fn every_method_on_the_test_problems() {
         &mut out,
         "rotation-decay euler h 1e-2",
         &rd,
-        ExplicitEuler,
+        Euler,
         &Options::default().fixed(1e-2),
     );
     line(
@@ -89,7 +89,7 @@ fn every_method_on_the_test_problems() {
         &mut out,
         "rotation-decay rk45 h 0.1",
         &rd,
-        Dopri5::default(),
+        Rk45::default(),
         &Options::default().fixed(0.1),
     );
     line(
@@ -102,20 +102,14 @@ fn every_method_on_the_test_problems() {
     let ar = Problem::new(arenstorf(), arenstorf_y0(), (0.0, ARENSTORF_T));
     for rtol in [1e-3, 1e-6, 1e-10] {
         let o = Options::default().rtol(rtol).atol(rtol);
-        line(
-            &mut out,
-            &format!("arenstorf rk45 {rtol:e}"),
-            &ar,
-            Dopri5::default(),
-            &o,
-        );
+        line(&mut out, &format!("arenstorf rk45 {rtol:e}"), &ar, Rk45::default(), &o);
     }
     let lz = Problem::new(lorenz(), lorenz_y0(), (0.0, 20.0));
     line(
         &mut out,
         "lorenz rk45 1e-8 dense",
         &lz,
-        Dopri5::default(),
+        Rk45::default(),
         &Options::default().rtol(1e-8).dense(true),
     );
     let su = Problem::new(sin_u(), vector![0.5], (0.0, 5.0));
@@ -159,7 +153,7 @@ fn every_method_on_the_test_problems() {
         &mut out,
         "unicycle rk45 1e-10",
         &up,
-        Dopri5::default(),
+        Rk45::default(),
         &Options::default().rtol(1e-10),
     );
     line(&mut out, "unicycle bdf 1e-6", &up, Bdf::default(), &Options::default());
@@ -181,7 +175,7 @@ fn every_method_on_the_test_problems() {
     let o = Options::default()
         .rtol(1e-6)
         .atol(1e-6)
-        .save(reckon::options::Save::End);
+        .save(reckon::problem::options::Save::End);
     line::<nalgebra::Dyn, _, _>(&mut out, "brusselator-100 bdf sparse 1e-6", &br, Bdf::default(), &o);
     line::<nalgebra::Dyn, _, _>(
         &mut out,

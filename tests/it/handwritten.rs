@@ -4,8 +4,8 @@
 #[path = "../../benches/handwritten.rs"]
 mod hand;
 
-use reckon::methods::Dopri5;
-use reckon::problems::*;
+use reckon::methods::Rk45;
+use reckon::studies::problems::*;
 use reckon::{Options, Problem, System};
 
 fn compare<const N: usize>(
@@ -19,7 +19,7 @@ fn compare<const N: usize>(
         let h = hand::dopri5(hand, 0.0, t_end, x0, tol);
         let p = Problem::new(&sys, nalgebra::SVector::from(x0), (0.0, t_end));
         let r = p
-            .solve(Dopri5::default(), &Options::default().rtol(tol).atol(tol).dense(false))
+            .solve(Rk45::default(), &Options::default().rtol(tol).atol(tol).dense(false))
             .unwrap();
         let ratio = r.stats.rhs_evals as f64 / h.evals as f64;
         assert!(

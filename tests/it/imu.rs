@@ -3,9 +3,9 @@
 
 use nalgebra::{Vector3, Vector5, vector};
 use reckon::Error;
-use reckon::models::body3d::rotation;
 use reckon::reckoning::drift::imu_bias_drift;
 use reckon::reckoning::imu::*;
+use reckon::vehicles::body3d::rotation;
 use std::f64::consts::PI;
 
 #[test]

@@ -3,8 +3,8 @@
 
 use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Matrix4, SMatrix, SVector, vector};
 use proptest::prelude::*;
-use reckon::models::unicycle;
-use reckon::problems::*;
+use reckon::studies::problems::*;
+use reckon::vehicles::unicycle;
 use reckon::{System, model};
 
 fn autodiff<const N: usize>(

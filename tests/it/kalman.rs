@@ -5,8 +5,8 @@ use num_dual::DualNum;
 use reckon::kalman::slam::{run, synthetic};
 use reckon::kalman::step::{Discretization, flow_jacobian, step_jacobian};
 use reckon::kalman::{Kalman, confidence_ellipse, mahalanobis2};
-use reckon::methods::{Dopri5, ExplicitEuler, ImplicitEuler, Method};
-use reckon::models::{body3d, carlike, unicycle};
+use reckon::methods::{Euler, ImplicitEuler, Method, Rk45};
+use reckon::vehicles::{body3d, carlike, unicycle};
 use reckon::{Controls, Error, Options, Problem, System};
 
 /// Velocity noise σ_v = 1 m/s per axis, dt = 0.1 s: after one hour σ = √(dt·t)·σ_v = 18.97 m.
@@ -142,13 +142,10 @@ fn step_jacobians_match_central_differences() {
     let h = 0.2;
     type StepFn<'a> = Box<dyn Fn(SVector<f64, 4>) -> SVector<f64, 4> + 'a>;
     let cases: [(Discretization, StepFn); 3] = [
-        (
-            Discretization::Euler,
-            Box::new(|x| step_f64(&sys, ExplicitEuler, x, &u, h)),
-        ),
+        (Discretization::Euler, Box::new(|x| step_f64(&sys, Euler, x, &u, h))),
         (
             Discretization::Rk45,
-            Box::new(|x| step_f64(&sys, Dopri5::default(), x, &u, h)),
+            Box::new(|x| step_f64(&sys, Rk45::default(), x, &u, h)),
         ),
         (
             Discretization::ImplicitEuler,

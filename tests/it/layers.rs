@@ -11,8 +11,11 @@ use std::path::Path;
 /// Modules allowed in a cycle: none. (Until 2026-12-07 nine were: `system` called
 /// `sensitivity::write_eps` and `integrator::brief`, `params` the former, `sparse`
 /// implemented `Eval`'s sparse path on `system`'s types, and `problem` built the
-/// `Integrator`. `write_eps` moved to `system`, `brief` to `error::Brief`, `Eval`'s sparse
-/// path to `system/sparse_eval.rs`, and `Problem::solve` to `integrator`.)
+/// `Integrator`. Then the folders were regrouped by role, and the choices that kept the
+/// new graph a DAG were: the error norm and step-size controller live in `methods`
+/// (methods measure their own error), the Newton iteration matrix in `methods` (it
+/// evaluates the model; `linalg` stays pure), `Flow`/`DualFlow` and `Stats` in `model`,
+/// and `jacobian::choice` decides dense or sparse without knowing the model.)
 const KNOWN_CYCLE: &[&str] = &[];
 
 /// Remove `//` comments (doc comments included) and string literals' contents.
@@ -245,7 +248,7 @@ fn the_cycle_finder_finds_cycles() {
 #[test]
 fn no_import_cycle_but_the_known_one() {
     let g = graph();
-    assert!(g.len() > 20, "read {} modules", g.len());
+    assert!(g.len() >= 15, "read {} modules", g.len());
     let known: BTreeSet<String> = KNOWN_CYCLE.iter().map(|s| s.to_string()).collect();
     for c in cycles(&g) {
         assert!(

@@ -5,7 +5,7 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
 use reckon::calibration::lsq::{self, LsqOptions, Observations, diff_drive};
-use reckon::methods::Dopri5;
+use reckon::methods::Rk45;
 use reckon::{Controls, Error, Options, Problem, Save};
 
 use crate::common::drives;
@@ -22,7 +22,7 @@ fn truth_poses(controls: &Controls, p: &[f64], t: &[f64]) -> Vec<Vector3<f64>> {
     let sol = Problem::new(&f, vector![0.0, 0.0, 0.0], (0.0, *t.last().unwrap()))
         .controls(controls.clone())
         .solve(
-            Dopri5::default(),
+            Rk45::default(),
             &Options::default().rtol(1e-12).atol(1e-14).save(Save::At(t.to_vec())),
         )
         .unwrap();
@@ -63,7 +63,7 @@ fn fit(obs: &Observations, controls: &Controls) -> reckon::Result<lsq::Fit> {
         0.0,
         controls,
         obs,
-        Dopri5::default(),
+        Rk45::default(),
         &Options::default().rtol(1e-10).atol(1e-12),
         &LsqOptions::default(),
     )
@@ -230,7 +230,7 @@ fn a_fit_that_cannot_move_is_an_error_not_the_start() {
         0.0,
         &u,
         &obs,
-        Dopri5::default(),
+        Rk45::default(),
         &Options::default().rtol(1e-10).atol(1e-12),
         &LsqOptions::default(),
     );

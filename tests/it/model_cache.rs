@@ -5,11 +5,11 @@
 //! models trace; a body that names a plain-f64 `t` is refused.
 
 use nalgebra::{DMatrix, DVector, Dyn, vector};
+use reckon::jacobian::SparseJacobian;
 use reckon::methods::{Bdf, Rodas5P};
-use reckon::options::{LinearSolver, Save};
-use reckon::sparse::SparseJacobian;
 use reckon::symbolic::TraceCounts;
 use reckon::{Error, Options, Problem, System, model, symbolic};
+use reckon::{LinearSolver, Save};
 use std::cell::Cell;
 
 fn counts(records: usize, traces: usize, compiles: usize) -> TraceCounts {

@@ -3,8 +3,8 @@
 //! return a wrong `Ok`.
 
 use nalgebra::{DVector, Vector3, vector};
-use reckon::methods::{Dopri5, Exact, ExplicitEuler, ImplicitEuler};
-use reckon::models::unicycle;
+use reckon::methods::{Euler, Exact, ImplicitEuler, Rk45};
+use reckon::vehicles::unicycle;
 use reckon::{Controls, Error, Event, Options, Problem, model};
 use std::cell::Cell;
 
@@ -22,7 +22,7 @@ fn epoch_timestamps_integrate_like_t0_zero() {
     let opts = Options::default().rtol(1e-8).atol(1e-10);
     for t0 in [0.0, 1.7e9, 1.7e12, -1.7e12] {
         let p = Problem::new(&f, vector![1.0, 1.0], (t0, t0 + 2.0));
-        let rk = p.solve(Dopri5::default(), &opts).unwrap();
+        let rk = p.solve(Rk45::default(), &opts).unwrap();
         // adaptive implicit Euler, first order: at rtol 1e-4 (its error follows the
         // tolerance; 1e-8 would take millions of steps)
         let ie = p
@@ -33,7 +33,7 @@ fn epoch_timestamps_integrate_like_t0_zero() {
         assert!((ie.last().1 - exact(2.0)).amax() < 1e-4, "implicit Euler at t0 = {t0}");
         // same number of steps as from 0: the epoch costs nothing
         let p0 = Problem::new(&f, vector![1.0, 1.0], (0.0, 2.0));
-        let rk0 = p0.solve(Dopri5::default(), &opts).unwrap();
+        let rk0 = p0.solve(Rk45::default(), &opts).unwrap();
         assert_eq!(rk.stats.accepted, rk0.stats.accepted, "t0 = {t0}");
     }
 }
@@ -54,12 +54,12 @@ fn control_times_a_few_ulps_apart() {
     // the 2-ulp interval contributes nothing measurable: a straight 2 m line
     assert!((ex - vector![2.0, 0.0, 0.0]).amax() < 1e-14, "{ex}");
     for (name, x) in [
-        ("euler", end(p.solve(ExplicitEuler, &Options::default().fixed(0.1)))),
+        ("euler", end(p.solve(Euler, &Options::default().fixed(0.1)))),
         (
             "implicit",
             end(p.solve(ImplicitEuler::default(), &Options::default().fixed(0.1))),
         ),
-        ("rk45", end(p.solve(Dopri5::default(), &Options::default()))),
+        ("rk45", end(p.solve(Rk45::default(), &Options::default()))),
         (
             "implicit adaptive",
             end(p.solve(ImplicitEuler::default(), &Options::default())),
@@ -91,8 +91,7 @@ fn step_limit_scales_with_the_control_intervals() {
     assert!((sol.last().1[1] / (m * chord * 0.0005f64.sin()) - 1.0).abs() < 1e-9);
     // one interval that needs more than the limit still reports it, typed
     let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
-    let r =
-        Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(ExplicitEuler, &Options::default().fixed(1e-3).max_steps(100));
+    let r = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Euler, &Options::default().fixed(1e-3).max_steps(100));
     assert!(matches!(r, Err(Error::MaxSteps { steps: 100, .. })), "{r:?}");
 }
 
@@ -115,11 +114,11 @@ fn dyn_model_of_the_wrong_length_is_a_typed_error() {
             calls.set(0);
             let opts = Options::default();
             match (sys_name, m) {
-                ("grow", "euler") => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(ExplicitEuler, &opts.fixed(0.1)),
-                ("grow", "rk45") => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(Dopri5::default(), &opts),
+                ("grow", "euler") => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(Euler, &opts.fixed(0.1)),
+                ("grow", "rk45") => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(Rk45::default(), &opts),
                 ("grow", _) => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(ImplicitEuler::default(), &opts),
-                (_, "euler") => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(ExplicitEuler, &opts.fixed(0.1)),
-                (_, "rk45") => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(Dopri5::default(), &opts),
+                (_, "euler") => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(Euler, &opts.fixed(0.1)),
+                (_, "rk45") => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(Rk45::default(), &opts),
                 _ => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(ImplicitEuler::default(), &opts),
             }
         };
@@ -160,7 +159,7 @@ fn nan_event_function_is_an_error() {
         Event::new(|_t, x: &nalgebra::SVector<f64, 1>| (0.5 - x[0]).sqrt() - 0.5f64.sqrt() + 1.0 - x[0]).terminal();
     let r = Problem::new(&f, vector![0.0], (0.0, 3.0))
         .event(ev)
-        .solve(Dopri5::default(), &Options::default());
+        .solve(Rk45::default(), &Options::default());
     match r {
         Err(Error::EventNaN { index: 0, t }) => assert!(t > 0.5 && t <= 3.0, "t = {t}"),
         other => panic!("expected EventNaN, got {other:?}"),
@@ -169,7 +168,7 @@ fn nan_event_function_is_an_error() {
     let ev = Event::new(|_t, _x: &nalgebra::SVector<f64, 1>| f64::NAN);
     let r = Problem::new(&f, vector![0.0], (0.0, 3.0))
         .event(ev)
-        .solve(ExplicitEuler, &Options::default().fixed(1.0));
+        .solve(Euler, &Options::default().fixed(1.0));
     assert_eq!(r.unwrap_err(), Error::EventNaN { index: 0, t: 0.0 });
 }
 
@@ -181,7 +180,7 @@ fn event_pole_is_a_crossing() {
     let ev = Event::new(|_t, x: &nalgebra::SVector<f64, 1>| 1.0 / (x[0] - 1.25));
     let sol = Problem::new(&f, vector![0.0], (0.0, 2.0))
         .event(ev)
-        .solve(Dopri5::default(), &Options::default())
+        .solve(Rk45::default(), &Options::default())
         .unwrap();
     let ts: Vec<f64> = sol.events.iter().map(|e| e.t).collect();
     assert_eq!(ts.len(), 1, "{ts:?}");
@@ -212,7 +211,7 @@ fn tiny_tolerances_give_a_typed_error_or_an_answer() {
         let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
         let opts = Options::default().rtol(0.0).atol(atol).max_steps(2000);
         for r in [
-            p.solve(Dopri5::default(), &opts),
+            p.solve(Rk45::default(), &opts),
             p.solve(ImplicitEuler::default(), &opts),
         ] {
             match r {
@@ -229,7 +228,7 @@ fn tiny_tolerances_give_a_typed_error_or_an_answer() {
             let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
             let opts = Options::default().rtol(tol).atol(tol).max_steps(2000);
             let r = match method {
-                "rk45" => p.solve(Dopri5::default(), &opts),
+                "rk45" => p.solve(Rk45::default(), &opts),
                 _ => p.solve(ImplicitEuler::default(), &opts),
             };
             match r {
@@ -238,7 +237,7 @@ fn tiny_tolerances_give_a_typed_error_or_an_answer() {
                     assert!(t.is_finite() && (0.0..1.0).contains(&t), "{method} {tol}: t = {t}")
                 }
                 // rtol below 10ε is refused up front, as it cannot be met
-                Err(Error::InvalidInput { what: "rtol", .. }) => assert!(tol < reckon::options::MIN_RTOL),
+                Err(Error::InvalidInput { what: "rtol", .. }) => assert!(tol < reckon::problem::options::MIN_RTOL),
                 Err(e) => panic!("{method} at tol {tol}: {e}"),
             }
         }
@@ -285,12 +284,12 @@ fn streaming_matches_controls_bit_for_bit() {
         }};
     }
     both!(Exact::new(unicycle::flow), Options::default().dense(false), "exact");
-    both!(ExplicitEuler, Options::default().fixed(0.02).dense(false), "euler");
-    both!(Dopri5::default(), Options::default().rtol(1e-9).dense(false), "rk45");
+    both!(Euler, Options::default().fixed(0.02).dense(false), "euler");
+    both!(Rk45::default(), Options::default().rtol(1e-9).dense(false), "rk45");
     both!(ImplicitEuler::default(), Options::default().fixed(0.01), "implicit");
     // an open-ended span cannot be solved to its end
     assert!(matches!(
-        open.solve(ExplicitEuler, &Options::default().fixed(0.1)),
+        open.solve(Euler, &Options::default().fixed(0.1)),
         Err(Error::InvalidInput { what: "span", .. })
     ));
 }
@@ -300,7 +299,7 @@ fn streaming_matches_controls_bit_for_bit() {
 fn errors_print_numbers_briefly() {
     let f = model!(|_t, x: [S; 1]| vector![x[0] * 1e300]);
     let e = Problem::new(&f, vector![1e300], (1e308, 1.5e308))
-        .solve(ExplicitEuler, &Options::default().fixed(1e307))
+        .solve(Euler, &Options::default().fixed(1e307))
         .unwrap_err();
     let msg = e.to_string();
     assert!(msg.len() < 80, "{msg}");
@@ -332,7 +331,7 @@ fn implicit_euler_near_a_blow_up_is_a_documented_limit() {
         .last()
         .1[0];
     assert!(per_step > 2000.0, "{per_step}");
-    let rk = p.solve(Dopri5::default(), &Options::default()).unwrap().last().1[0];
+    let rk = p.solve(Rk45::default(), &Options::default()).unwrap().last().1[0];
     assert!((rk / 1000.0 - 1.0).abs() < 1e-3, "{rk}");
 }
 

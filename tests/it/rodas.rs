@@ -3,8 +3,8 @@
 
 use nalgebra::{Complex, SMatrix, SVector, Vector2, vector};
 use reckon::methods::rodas5p::{A, C, C_T, D_T, GAMMA, STAGES};
-use reckon::methods::{Dopri5, Rodas5P};
-use reckon::problems::*;
+use reckon::methods::{Rk45, Rodas5P};
+use reckon::studies::problems::*;
 use reckon::{Options, Problem, System, model};
 
 type M8 = SMatrix<f64, 8, 8>;
@@ -422,15 +422,12 @@ fn hires_published_end_state() {
 }
 
 /// Dense output between steps is as accurate as the step ends: Van der Pol μ = 5 at
-/// rtol 1e-7 against a Dopri5 solution at rtol 1e-13.
+/// rtol 1e-7 against a Rk45 solution at rtol 1e-13.
 #[test]
 fn dense_output_matches_tight_solution() {
     let p = Problem::new(van_der_pol(5.0), vector![2.0, 0.0], (0.0, 10.0));
     let tight = p
-        .solve(
-            Dopri5::default(),
-            &Options::default().rtol(1e-13).atol(1e-13).dense(true),
-        )
+        .solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-13).dense(true))
         .unwrap();
     let sol = p
         .solve(

@@ -8,13 +8,14 @@ use crate::common::bruss;
 use bruss::{Bruss, Jac};
 use nalgebra::{DMatrix, DVector, Dyn};
 use proptest::prelude::*;
+use reckon::jacobian::colour::{Coloured, Colouring, detect_pattern};
+use reckon::jacobian::{Pattern, SparseJacobian};
+use reckon::linalg::SparseLu;
 use reckon::methods::{Bdf, ImplicitEuler, Method, Rodas5P};
 use reckon::num_dual::DualDVec64;
-use reckon::options::{LinearSolver, Save};
-use reckon::problems::{brusselator, brusselator_2d, brusselator_2d_y0, brusselator_y0, brusselator_y0_book};
-use reckon::sparse::colour::{Coloured, Colouring, detect_pattern};
-use reckon::sparse::{Pattern, SparseJacobian, SparseLu};
+use reckon::studies::problems::{brusselator, brusselator_2d, brusselator_2d_y0, brusselator_y0, brusselator_y0_book};
 use reckon::{Error, Options, Problem, System};
+use reckon::{LinearSolver, Save};
 
 /// A random `n × n` pattern with the diagonal and about `density·n²` off-diagonal
 /// entries, values with `|a_ii| > Σ_{j≠i} |a_ij|` (rows), from a seed.
@@ -338,7 +339,7 @@ fn traced_model_takes_the_sparse_path() {
     }
     assert_eq!(
         coloured.pattern(),
-        &reckon::sparse::Pattern::from_entries(2 * nn, &e).unwrap()
+        &reckon::jacobian::Pattern::from_entries(2 * nn, &e).unwrap()
     );
 }
 

@@ -4,10 +4,10 @@
 
 use nalgebra::DMatrix;
 use reckon::error::Quantity;
+use reckon::jacobian::Pattern;
+use reckon::linalg::arnoldi::{SpectralOptions, dominant, gershgorin, sparse_spectrum};
 use reckon::methods::ImplicitEuler;
-use reckon::problems::{brusselator, brusselator_y0};
-use reckon::sparse::Pattern;
-use reckon::studies::spectral::{SpectralOptions, dominant, gershgorin, sparse_spectrum};
+use reckon::studies::problems::{brusselator, brusselator_y0};
 use reckon::studies::stiffness::{eigenvalues, stiffness_along, stiffness_along_sparse};
 use reckon::{Error, Options, Problem, System};
 use std::f64::consts::PI;

@@ -1,8 +1,8 @@
 //! Stiff problems: implicit Euler stays stable where explicit methods cannot.
 
 use nalgebra::vector;
-use reckon::methods::{Dopri5, ExplicitEuler, ImplicitEuler};
-use reckon::problems::*;
+use reckon::methods::{Euler, ImplicitEuler, Rk45};
+use reckon::studies::problems::*;
 use reckon::{Error, Options, Problem};
 
 #[test]
@@ -23,7 +23,7 @@ fn stiff_cosine_implicit_bounded_explicit_blows_up() {
         );
     }
     // explicit Euler amplifies the deviation by |1 − 100| = 99 per step
-    let ee = p.solve(ExplicitEuler, &opts).unwrap();
+    let ee = p.solve(Euler, &opts).unwrap();
     let dev: Vec<f64> = ee.t.iter().zip(&ee.x).map(|(t, x)| (x[0] - t.cos()).abs()).collect();
     assert!(dev[100] > 1e150, "explicit Euler deviation at t = 10: {}", dev[100]);
     for k in 20..100 {
@@ -45,7 +45,7 @@ fn van_der_pol_mu_1000_implicit_finishes_rk45_struggles() {
     let y1 = ie.last().1[0];
     assert!(y1 < -1.0 && y1 > -2.1, "y1(3000) = {y1}");
     // DP5 is pinned by stability (|hλ| ≤ 3.3 with λ ≈ −3000 on the slow branches)
-    let rk = p.solve(Dopri5::default(), &opts.clone().max_steps(5_000_000)).unwrap();
+    let rk = p.solve(Rk45::default(), &opts.clone().max_steps(5_000_000)).unwrap();
     let rk_steps = rk.stats.accepted + rk.stats.rejected;
     assert!(
         rk_steps >= 10 * ie_steps,
@@ -61,7 +61,7 @@ fn van_der_pol_mu_1000_implicit_finishes_rk45_struggles() {
     );
     // with the default step limit the run stops with a typed error, not a hang
     assert!(matches!(
-        p.solve(Dopri5::default(), &opts),
+        p.solve(Rk45::default(), &opts),
         Err(Error::MaxSteps { steps: 100_000, .. })
     ));
 }

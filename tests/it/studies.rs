@@ -2,14 +2,15 @@
 
 use nalgebra::vector;
 use num_complex::Complex64;
-use reckon::methods::{Dopri5, Flow};
-use reckon::models::unicycle;
-use reckon::problems::*;
+use reckon::methods::Rk45;
+use reckon::model::Flow;
 use reckon::studies::MethodKind::{self, *};
 use reckon::studies::convergence::convergence;
+use reckon::studies::problems::*;
 use reckon::studies::stability::*;
 use reckon::studies::stiffness::{step_history, stiffness_along};
 use reckon::studies::work_precision::work_precision;
+use reckon::vehicles::unicycle;
 use reckon::{Controls, Options, Problem};
 
 fn check(study: &reckon::studies::convergence::Convergence) {
@@ -77,14 +78,10 @@ fn vehicle_convergence_against_the_exact_flow() {
 
 #[test]
 fn stability_regions() {
-    assert!((real_axis_limit(StabilityOf::ExplicitEuler) + 2.0).abs() < 1e-12);
-    assert!((real_axis_limit(StabilityOf::Dopri5) + 3.3065678926349467).abs() < 1e-12);
+    assert!((real_axis_limit(StabilityOf::Euler) + 2.0).abs() < 1e-12);
+    assert!((real_axis_limit(StabilityOf::Rk45) + 3.3065678926349467).abs() < 1e-12);
     assert_eq!(real_axis_limit(StabilityOf::ImplicitEuler), f64::NEG_INFINITY);
-    for m in [
-        StabilityOf::ExplicitEuler,
-        StabilityOf::ImplicitEuler,
-        StabilityOf::Dopri5,
-    ] {
+    for m in [StabilityOf::Euler, StabilityOf::ImplicitEuler, StabilityOf::Rk45] {
         let segs = boundary(m, (-4.0, 2.5), (-3.5, 3.5), 161);
         assert!(segs.len() > 50, "{m:?}");
         for s in &segs {
@@ -95,7 +92,7 @@ fn stability_regions() {
         }
     }
     // Euler's boundary is the circle |z + 1| = 1
-    for s in boundary(StabilityOf::ExplicitEuler, (-2.5, 0.5), (-1.5, 1.5), 201) {
+    for s in boundary(StabilityOf::Euler, (-2.5, 0.5), (-1.5, 1.5), 201) {
         let (x, y) = s[0];
         assert!((((x + 1.0).powi(2) + y * y).sqrt() - 1.0).abs() < 1e-3);
     }
@@ -118,7 +115,7 @@ fn euler_threshold_within_one_percent() {
 fn rk45_step_pinned_by_stability() {
     let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 300.0));
     let opts = Options::default().rtol(1e-3).atol(1e-6);
-    let rk = p.solve(Dopri5::default(), &opts.clone().max_steps(1_000_000)).unwrap();
+    let rk = p.solve(Rk45::default(), &opts.clone().max_steps(1_000_000)).unwrap();
     let ie = p.solve(reckon::methods::ImplicitEuler::default(), &opts).unwrap();
     let hr = step_history(&rk);
     let hi = step_history(&ie);
@@ -286,7 +283,7 @@ fn stiffness_along_non_finite_jacobian() {
     let down = reckon::model!(|_t, x: [S; 1]| vector![x[0] * 0.0 - 1.0]);
     let p = Problem::new(&down, vector![1.0], (0.0, 2.0));
     let sol = p
-        .solve(reckon::methods::ExplicitEuler, &Options::default().fixed(0.25))
+        .solve(reckon::methods::Euler, &Options::default().fixed(0.25))
         .unwrap();
     // ∂√x/∂x = 1/(2√x) is ∞ where the solution reaches 0, at t = 1
     let root = reckon::model!(|_t, x: [S; 1]| vector![x[0].sqrt()]);

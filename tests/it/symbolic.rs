@@ -5,10 +5,10 @@
 use nalgebra::{DMatrix, DVector, OMatrix, SVector, vector};
 use proptest::prelude::*;
 use rand::{Rng, SeedableRng, rngs::StdRng};
-use reckon::models::{bicycle, body3d, carlike, unicycle};
+use reckon::jacobian::{Pattern, SparseJacobian};
 use reckon::num_dual::DualNum;
-use reckon::problems::*;
-use reckon::sparse::{Pattern, SparseJacobian};
+use reckon::studies::problems::*;
+use reckon::vehicles::{bicycle, body3d, carlike, unicycle};
 use reckon::{Error, System, model, symbolic};
 
 /// `max |a − b| ≤ tol·max(|b|, tiny)` over the matrix.

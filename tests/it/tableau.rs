@@ -1,7 +1,7 @@
 //! Dormand–Prince 5(4): tableau identities, order conditions, dense output weights.
 #![allow(clippy::needless_range_loop)] // index notation mirrors the order conditions
 
-use reckon::methods::dopri5::tableau::{A, B, B_HAT, C, D, E};
+use reckon::methods::rk45::tableau::{A, B, B_HAT, C, D, E};
 
 const TOL: f64 = 1e-15;
 

@@ -3,9 +3,10 @@
 
 use nalgebra::{Const, Matrix3, Matrix4, SMatrix, SVector, Vector3, Vector4, vector};
 use proptest::prelude::*;
-use reckon::methods::{Dopri5, Exact, ExplicitEuler, Flow};
-use reckon::models::{bicycle, body3d, carlike, unicycle};
+use reckon::methods::{Euler, Exact, Rk45};
+use reckon::model::Flow;
 use reckon::studies::fit_order;
+use reckon::vehicles::{bicycle, body3d, carlike, unicycle};
 use reckon::{Controls, Options, Problem, System};
 
 /// `n` one-second-ish intervals of deterministic, varied inputs (including exact zeros).
@@ -26,7 +27,7 @@ fn exact_vs_rk45<const N: usize>(
     let ex = p.solve(Exact::new(flow), &Options::default()).unwrap();
     assert_eq!(ex.t.len(), c.times().len(), "one exact step per interval");
     let rk = p
-        .solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap();
     for (t, x) in ex.t.iter().zip(&ex.x) {
         let k =
@@ -79,7 +80,7 @@ fn carlike_midpoint_flow_is_second_order() {
     .unwrap();
     let p = Problem::new(carlike::model(2.5), vector![0.0, 0.0, 0.0, 0.05], (0.0, 2.0)).controls(c);
     let reference = *p
-        .solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap()
         .last()
         .1;
@@ -103,7 +104,7 @@ fn carlike_midpoint_flow_is_second_order() {
         .collect();
     let euler: Vec<f64> = hs
         .iter()
-        .map(|&h| err(p.solve(ExplicitEuler, &Options::default().fixed(h)).unwrap()))
+        .map(|&h| err(p.solve(Euler, &Options::default().fixed(h)).unwrap()))
         .collect();
     let (pm, pe) = (fit_order(&hs, &mid).unwrap(), fit_order(&hs, &euler).unwrap());
     assert!((pm - 2.0).abs() <= 0.1, "midpoint-steering order {pm}: {mid:?}");
@@ -230,7 +231,7 @@ fn inputs_as_a_closure_of_time() {
     let p = Problem::new(&f, vector![0.0, 0.0, 0.0], (0.0, 3.0));
     // θ(t) = (v/L)∫tan(sin s) ds: check θ against an independent quadrature
     let sol = p
-        .solve(Dopri5::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap();
     let n = 200_000;
     let quad: f64 = (0..n)
@@ -254,7 +255,7 @@ fn inputs_as_a_closure_of_time() {
     let err = |sol: reckon::Solution<Const<3>>| (sol.last().1 - reference).amax();
     let ee: Vec<f64> = hs
         .iter()
-        .map(|&h| err(p.solve(ExplicitEuler, &Options::default().fixed(h)).unwrap()))
+        .map(|&h| err(p.solve(Euler, &Options::default().fixed(h)).unwrap()))
         .collect();
     let ie: Vec<f64> = hs
         .iter()
@@ -271,6 +272,6 @@ fn inputs_as_a_closure_of_time() {
         let order = fit_order(&hs, e).unwrap();
         assert!((order - 1.0).abs() <= 0.1, "{name} order {order}: {e:?}");
     }
-    let dp = err(p.solve(Dopri5::default(), &Options::default().fixed(0.05)).unwrap());
+    let dp = err(p.solve(Rk45::default(), &Options::default().fixed(0.05)).unwrap());
     assert!(dp < 1e-9, "fixed-step DP5 error {dp}");
 }

@@ -606,7 +606,7 @@ fn censi_intervals(
         let rel = Vector3::new(
             c * d[0] + s * d[1],
             -s * d[0] + c * d[1],
-            reckon::models::wrap_angle(d[2]),
+            reckon::vehicles::wrap_angle(d[2]),
         );
         out.push(censi::Interval { wheels, sensor: rel });
     }

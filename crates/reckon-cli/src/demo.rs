@@ -2,9 +2,9 @@
 //! methods (`Bdf`, `Rodas5P`, `Auto`, `ExponentialEuler`) on the stiff problems.
 
 use nalgebra::{Const, SVector, vector};
-use reckon::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, ExponentialEuler, ImplicitEuler, Method, Rodas5P};
-use reckon::models::unicycle;
-use reckon::problems::*;
+use reckon::methods::{Auto, Bdf, Euler, Exact, ExponentialEuler, ImplicitEuler, Method, Rk45, Rodas5P};
+use reckon::studies::problems::*;
+use reckon::vehicles::unicycle;
 use reckon::{Controls, Options, Problem, System};
 use std::io::Write;
 use std::time::Instant;
@@ -133,13 +133,13 @@ pub fn run(out: &mut dyn Write) -> Res {
         rotation_decay_exact(5.0, &x0),
         1.0,
     )?;
-    t.row(ExplicitEuler, "h = 0.01", &fixed(0.01))?;
-    t.row(ExplicitEuler, "h = 0.001", &fixed(0.001))?;
+    t.row(Euler, "h = 0.01", &fixed(0.01))?;
+    t.row(Euler, "h = 0.001", &fixed(0.001))?;
     t.row(ImplicitEuler::default(), "h = 0.01", &fixed(0.01))?;
     t.row(ImplicitEuler::default(), "tol = 1e-3", &tight(1e-3))?;
-    t.row(Dopri5::default(), "h = 0.1", &fixed(0.1))?;
-    t.row(Dopri5::default(), "tol = 1e-6", &tight(1e-6))?;
-    t.row(Dopri5::default(), "tol = 1e-10", &tight(1e-10))?;
+    t.row(Rk45::default(), "h = 0.1", &fixed(0.1))?;
+    t.row(Rk45::default(), "tol = 1e-6", &tight(1e-6))?;
+    t.row(Rk45::default(), "tol = 1e-10", &tight(1e-10))?;
     // linear: exponential Euler's one step is the matrix exponential
     t.row(ExponentialEuler::default(), "h = 5", &fixed(5.0))?;
 
@@ -151,10 +151,10 @@ pub fn run(out: &mut dyn Write) -> Res {
         sin_u_exact(5.0, 0.5),
         1.0,
     )?;
-    t.row(ExplicitEuler, "h = 0.01", &fixed(0.01))?;
+    t.row(Euler, "h = 0.01", &fixed(0.01))?;
     t.row(ImplicitEuler::default(), "h = 0.01", &fixed(0.01))?;
-    t.row(Dopri5::default(), "h = 0.1", &fixed(0.1))?;
-    t.row(Dopri5::default(), "tol = 1e-10", &tight(1e-10))?;
+    t.row(Rk45::default(), "h = 0.1", &fixed(0.1))?;
+    t.row(Rk45::default(), "tol = 1e-10", &tight(1e-10))?;
 
     let p = Problem::new(stiff_cosine(), vector![1.0], (0.0, 2.0));
     let mut t = table(
@@ -164,11 +164,11 @@ pub fn run(out: &mut dyn Write) -> Res {
         vector![2f64.cos()],
         1.0,
     )?;
-    t.row(ExplicitEuler, "h = 0.0019", &fixed(0.0019))?;
-    t.row(ExplicitEuler, "h = 0.0021", &fixed(0.0021))?;
+    t.row(Euler, "h = 0.0019", &fixed(0.0019))?;
+    t.row(Euler, "h = 0.0021", &fixed(0.0021))?;
     t.row(ImplicitEuler::default(), "h = 0.1", &fixed(0.1))?;
     t.row(ImplicitEuler::default(), "tol = 1e-3", &tight(1e-3))?;
-    t.row(Dopri5::default(), "tol = 1e-6", &tight(1e-6))?;
+    t.row(Rk45::default(), "tol = 1e-6", &tight(1e-6))?;
     t.row(Bdf::default(), "tol = 1e-6", &tight(1e-6))?;
     t.row(Rodas5P::default(), "tol = 1e-6", &tight(1e-6))?;
     t.row(Auto::default(), "tol = 1e-6", &tight(1e-6))?;
@@ -178,7 +178,7 @@ pub fn run(out: &mut dyn Write) -> Res {
     let p = Problem::new(arenstorf(), y0, (0.0, ARENSTORF_T));
     let mut t = table(out, "Arenstorf orbit, one period (exact: returns to y0)", &p, y0, 1.0)?;
     for tol in [1e-6, 1e-8, 1e-10, 1e-12] {
-        t.row(Dopri5::default(), &format!("tol = {tol:e}"), &tight(tol))?;
+        t.row(Rk45::default(), &format!("tol = {tol:e}"), &tight(tol))?;
     }
 
     let controls = unicycle_scenario()?;
@@ -196,11 +196,11 @@ pub fn run(out: &mut dyn Write) -> Res {
         1.0,
     )?;
     t.row(Exact::new(unicycle::flow), "per interval", &Options::default())?;
-    t.row(ExplicitEuler, "h = 0.1", &fixed(0.1))?;
-    t.row(ExplicitEuler, "h = 0.01", &fixed(0.01))?;
+    t.row(Euler, "h = 0.1", &fixed(0.1))?;
+    t.row(Euler, "h = 0.01", &fixed(0.01))?;
     t.row(ImplicitEuler::default(), "h = 0.01", &fixed(0.01))?;
-    t.row(Dopri5::default(), "h = 0.1", &fixed(0.1))?;
-    t.row(Dopri5::default(), "tol = 1e-10", &tight(1e-10))?;
+    t.row(Rk45::default(), "h = 0.1", &fixed(0.1))?;
+    t.row(Rk45::default(), "tol = 1e-10", &tight(1e-10))?;
     t.row(ExponentialEuler::default(), "h = 0.1", &fixed(0.1))?;
 
     // the stiff problems: every stiff method, RK45 with a step cap
@@ -222,7 +222,7 @@ pub fn run(out: &mut dyn Write) -> Res {
         t.row(Auto::default(), &setting, &tight(tol))?;
     }
     t.row(ExponentialEuler::default(), "tol = 1e-4", &tight(1e-4))?;
-    t.row(Dopri5::default(), "tol = 1e-6", &capped(tight(1e-6)))?;
+    t.row(Rk45::default(), "tol = 1e-6", &capped(tight(1e-6)))?;
 
     let p = Problem::new(robertson(), vector![1.0, 0.0, 0.0], (0.0, 1e11));
     let mut t = table(
@@ -241,7 +241,7 @@ pub fn run(out: &mut dyn Write) -> Res {
         t.row(Auto::default(), &setting, &rober(tol))?;
     }
     t.row(ExponentialEuler::default(), "rtol = 1e-4", &rober(1e-4))?;
-    t.row(Dopri5::default(), "rtol = 1e-4", &capped(rober(1e-4)))?;
+    t.row(Rk45::default(), "rtol = 1e-4", &capped(rober(1e-4)))?;
 
     let p = Problem::new(hires(), hires_y0(), (0.0, HIRES_T));
     let mut t = table(
@@ -259,7 +259,7 @@ pub fn run(out: &mut dyn Write) -> Res {
         t.row(Auto::default(), &setting, &tight(tol))?;
     }
     t.row(ExponentialEuler::default(), "tol = 1e-4", &tight(1e-4))?;
-    t.row(Dopri5::default(), "tol = 1e-6", &capped(tight(1e-6)))?;
+    t.row(Rk45::default(), "tol = 1e-6", &capped(tight(1e-6)))?;
     writeln!(
         t.out,
         "\nRK45's step on the stiff problems is pinned by stability (|hλ| ≤ 3.3), not accuracy: on Van der Pol and \

@@ -1,9 +1,9 @@
 //! `reckon jacobian`: a vehicle model's or a test problem's right-hand side and
 //! Jacobian, traced from its `model!` body and printed symbolically.
 
-use reckon::models::{bicycle, body3d, carlike, unicycle};
-use reckon::problems;
+use reckon::studies::problems;
 use reckon::symbolic::{self, Traced};
+use reckon::vehicles::{bicycle, body3d, carlike, unicycle};
 use std::io::Write;
 
 /// How to print.

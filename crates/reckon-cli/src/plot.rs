@@ -170,7 +170,7 @@ pub enum MethodStyle {
     /// Black solid line (markers at the step ends when given).
     Exact,
     /// Red solid line.
-    ExplicitEuler,
+    Euler,
     /// Green dotted line.
     ImplicitEuler,
     /// Blue dashed line (RK45 and its DP5 stability boundary).
@@ -191,7 +191,7 @@ impl MethodStyle {
     /// use reckon_cli::plot::MethodStyle;
     /// assert_eq!(MethodStyle::of("rk45 (slope 5.01)"), Some(MethodStyle::Rk45));
     /// assert_eq!(MethodStyle::of("implicit-euler"), Some(MethodStyle::ImplicitEuler));
-    /// assert_eq!(MethodStyle::of("explicit Euler h = 0.1"), Some(MethodStyle::ExplicitEuler));
+    /// assert_eq!(MethodStyle::of("explicit Euler h = 0.1"), Some(MethodStyle::Euler));
     /// assert_eq!(MethodStyle::of("bdf"), Some(MethodStyle::Bdf));
     /// assert_eq!(MethodStyle::of("rodas5p"), Some(MethodStyle::Rodas5P));
     /// assert_eq!(MethodStyle::of("auto (rk45 ⇄ bdf)"), Some(MethodStyle::Auto));
@@ -213,7 +213,7 @@ impl MethodStyle {
         } else if l.contains("implicit euler") {
             Some(MethodStyle::ImplicitEuler)
         } else if l.contains("explicit euler") || first == "euler" || l.contains("euler h") {
-            Some(MethodStyle::ExplicitEuler)
+            Some(MethodStyle::Euler)
         } else {
             None
         }
@@ -221,7 +221,7 @@ impl MethodStyle {
     fn color(self) -> RGBColor {
         match self {
             MethodStyle::Exact => RGBColor(0, 0, 0),
-            MethodStyle::ExplicitEuler => RGBColor(214, 39, 40),
+            MethodStyle::Euler => RGBColor(214, 39, 40),
             MethodStyle::ImplicitEuler => RGBColor(44, 160, 44),
             MethodStyle::Rk45 => RGBColor(31, 119, 180),
             MethodStyle::Bdf => RGBColor(148, 103, 189),
@@ -232,7 +232,7 @@ impl MethodStyle {
     /// Dash and gap in pixels (`None`: solid).
     fn dash(self) -> Option<(u32, u32)> {
         match self {
-            MethodStyle::Exact | MethodStyle::ExplicitEuler => None,
+            MethodStyle::Exact | MethodStyle::Euler => None,
             MethodStyle::ImplicitEuler => Some((3, 4)),
             MethodStyle::Rk45 => Some((10, 5)),
             MethodStyle::Bdf => Some((16, 6)),

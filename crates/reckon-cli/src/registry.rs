@@ -3,14 +3,15 @@
 use nalgebra::allocator::Allocator;
 use nalgebra::{Const, DefaultAllocator, Dim, OVector, SVector, vector};
 use reckon::linalg::LuDim;
-use reckon::methods::{Auto, Bdf, Dopri5, Flow, ImplicitEuler, Method, Rodas5P};
-use reckon::models::{bicycle, carlike, unicycle};
-use reckon::problems::*;
+use reckon::linalg::arnoldi::{SPARSE_MIN_STATES, SpectralOptions};
+use reckon::methods::{Auto, Bdf, ImplicitEuler, Method, Rk45, Rodas5P};
+use reckon::model::Flow;
 use reckon::studies::MethodKind;
 use reckon::studies::convergence::{Convergence, check, convergence};
-use reckon::studies::spectral::{SPARSE_MIN_STATES, SpectralOptions};
+use reckon::studies::problems::*;
 use reckon::studies::stiffness::{StiffnessPoint, sampled_stiffness, stiffness_along};
 use reckon::studies::work_precision::{WorkPoint, work_precision_scaled};
+use reckon::vehicles::{bicycle, carlike, unicycle};
 use reckon::{Controls, Error, Options, Problem, Result, Solution, System};
 
 /// A step-size history, possibly cut short by an error (RK45 on a stiff problem).
@@ -133,7 +134,7 @@ where
             );
         }
         self.problem.solve(
-            Dopri5::default(),
+            Rk45::default(),
             &Options::default()
                 .rtol(1e-12)
                 .atol(1e-12)
@@ -202,7 +203,7 @@ where
             opts.clone()
         };
         vec![
-            history(&self.problem, Dopri5::default(), &rk45),
+            history(&self.problem, Rk45::default(), &rk45),
             // per-step control, as RK45's: the two step counts then compare the step
             // that accuracy allows with the step that stability allows
             history(&self.problem, ImplicitEuler::default().proportional(false), &opts),

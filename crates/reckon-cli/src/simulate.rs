@@ -2,8 +2,9 @@
 
 use super::csvio::{RowWriter, Rows, check_not_input, num};
 use nalgebra::{Const, SVector};
-use reckon::methods::{Auto, Bdf, Dopri5, Exact, ExplicitEuler, Flow, ImplicitEuler, Method, Rodas5P};
-use reckon::models::{bicycle, carlike, unicycle};
+use reckon::methods::{Auto, Bdf, Euler, Exact, ImplicitEuler, Method, Rk45, Rodas5P};
+use reckon::model::Flow;
+use reckon::vehicles::{bicycle, carlike, unicycle};
 use reckon::{Options, Problem, System};
 use std::error::Error;
 use std::path::PathBuf;
@@ -206,9 +207,9 @@ where
     out.line(header)?;
     let adaptive = base.clone().h_max(args.dt.unwrap_or(f64::INFINITY));
     match args.method {
-        MethodName::Euler => stream(&problem, ExplicitEuler, &fixed, rdr, next, out),
+        MethodName::Euler => stream(&problem, Euler, &fixed, rdr, next, out),
         MethodName::ImplicitEuler => stream(&problem, ImplicitEuler::default(), &fixed, rdr, next, out),
-        MethodName::Rk45 => stream(&problem, Dopri5::default(), &adaptive, rdr, next, out),
+        MethodName::Rk45 => stream(&problem, Rk45::default(), &adaptive, rdr, next, out),
         MethodName::Bdf => stream(&problem, Bdf::default(), &adaptive, rdr, next, out),
         MethodName::Rodas5p => stream(&problem, Rodas5P::default(), &adaptive, rdr, next, out),
         MethodName::Auto => stream(&problem, Auto::default(), &adaptive, rdr, next, out),

@@ -314,12 +314,12 @@ pub fn convergence(a: &ConvergenceArgs) -> Res {
 /// Stability-region boundaries of the three methods and the Dahlquist threshold table.
 pub fn stability_files(dir: &Path) -> Res<Vec<(f64, f64, f64)>> {
     let methods = [
-        (StabilityOf::ExplicitEuler, "explicit Euler |1 + z| = 1"),
+        (StabilityOf::Euler, "explicit Euler |1 + z| = 1"),
         (
             StabilityOf::ImplicitEuler,
             "implicit Euler |1/(1 - z)| = 1 (stable outside)",
         ),
-        (StabilityOf::Dopri5, "DP5 |R(z)| = 1 (stable inside)"),
+        (StabilityOf::Rk45, "DP5 |R(z)| = 1 (stable inside)"),
     ];
     let mut plot = Plot::new("Linear stability regions |R(hλ)| ≤ 1", "Re(hλ)", "Im(hλ)").equal();
     let mut csv = Vec::new();
@@ -459,7 +459,7 @@ pub fn stiffness(a: &StiffnessArgs) -> Res {
             "stiffness_estimate": if run.sparse { "sparse" } else { "dense" },
             "stiffness_every": run.every,
             "stiffness_points": pts.len(),
-            "dp5_real_axis_limit": real_axis_limit(StabilityOf::Dopri5),
+            "dp5_real_axis_limit": real_axis_limit(StabilityOf::Rk45),
             "euler_threshold": dahl.iter().map(|(l, h, t)| serde_json::json!({"lambda": l, "located": h, "theory": t})).collect::<Vec<_>>(),
             "files": ["step_sizes.csv", "step_sizes.svg", "stiffness.csv", "stiffness.svg", "stability_regions.svg", "stability_boundary.csv", "dahlquist_threshold.csv"],
         });

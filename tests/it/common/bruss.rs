@@ -1,16 +1,16 @@
-//! BRUSS 1-D (HNW ODE II §IV.1, the body of `reckon::problems::brusselator`) as a
+//! BRUSS 1-D (HNW ODE II §IV.1, the body of `reckon::studies::problems::brusselator`) as a
 //! hand-written `System<Dyn>` that offers a sparse Jacobian, for the sparse path's tests,
 //! benches and examples until `model!` gives one itself: `rhs` at `f64`, the dense
 //! `jacobian` exact by hand, and `sparse_jacobian` either the coloured num-dual evaluator
-//! (`reckon::sparse::colour::Coloured` over the same body at `DualDVec64`) or the exact
+//! (`reckon::jacobian::colour::Coloured` over the same body at `DualDVec64`) or the exact
 //! non-zeros by hand (`Jac::Hand`, a stand-in for a compiled evaluator).
 #![allow(dead_code)]
 
 use nalgebra::{DMatrix, DVector, Dyn};
 use reckon::System;
+use reckon::jacobian::colour::Coloured;
+use reckon::jacobian::{Pattern, SparseJacobian};
 use reckon::num_dual::{DualDVec64, DualNum};
-use reckon::sparse::colour::Coloured;
-use reckon::sparse::{Pattern, SparseJacobian};
 use std::cell::Cell;
 
 /// Which sparse evaluator the model offers.

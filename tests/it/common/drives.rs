@@ -4,8 +4,8 @@
 use nalgebra::Vector3;
 use reckon::Controls;
 use reckon::reckoning::drift::square;
+use reckon::reckoning::encoder_sim::{EncoderErrors, EncoderRun, simulate};
 use reckon::reckoning::encoders::DiffDrive;
-use reckon::reckoning::errors::{EncoderErrors, EncoderRun, simulate};
 
 /// Wheel speeds (rad/s) changing every 2 s over 60 s: straight runs and turns both ways.
 pub fn wheel_speed_log() -> Controls {

@@ -10,9 +10,9 @@ use reckon::ensemble::encoder::EncoderEnsemble;
 use reckon::ensemble::stats::chi2_interval;
 use reckon::ensemble::{Ensemble, Layout, Statistics};
 use reckon::kalman::{Kalman, confidence_ellipse, slam};
-use reckon::models::body3d::rotation;
+use reckon::reckoning::encoder_sim::{Command, EncoderErrors};
 use reckon::reckoning::encoders::DiffDrive;
-use reckon::reckoning::errors::{Command, EncoderErrors};
+use reckon::vehicles::body3d::rotation;
 use std::fmt::Write as _;
 use std::path::Path;
 

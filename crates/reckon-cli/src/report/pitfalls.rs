@@ -4,8 +4,8 @@ use super::vehicles::{bicycle_controls, flow_curve, xy};
 use super::{Report, Res};
 use crate::plot::{Plot, Series, Style};
 use nalgebra::Vector3;
-use reckon::methods::{Exact, ExplicitEuler};
-use reckon::models::{bicycle, unicycle};
+use reckon::methods::{Euler, Exact};
+use reckon::vehicles::{bicycle, unicycle};
 use reckon::{Options, Problem};
 use std::path::Path;
 
@@ -96,7 +96,7 @@ pub(super) fn pitfalls(r: &mut Report, dir: &Path) -> Res {
         x = bicycle::flow(0.5)(0.0, &x, u, dt);
         wrong.push((x[0], x[1]));
     }
-    let right = p.solve(ExplicitEuler, &Options::default().fixed(dt))?;
+    let right = p.solve(Euler, &Options::default().fixed(dt))?;
     let plot = Plot::new(
         "Inputs indexed by step number (bicycle, α = sin t sampled at T = 0.1, steps of 0.05)",
         "x (m)",

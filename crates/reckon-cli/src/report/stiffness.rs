@@ -44,9 +44,9 @@ fn stability_plot() -> Plot {
     use reckon::studies::stability::{StabilityOf, boundary};
     let mut plot = Plot::new("Linear stability regions |R(hλ)| ≤ 1", "Re(hλ)", "Im(hλ)").equal();
     for (m, label) in [
-        (StabilityOf::ExplicitEuler, "explicit Euler |1 + z| = 1"),
+        (StabilityOf::Euler, "explicit Euler |1 + z| = 1"),
         (StabilityOf::ImplicitEuler, "implicit Euler |1/(1 − z)| = 1"),
-        (StabilityOf::Dopri5, "DP5 (RK45) |R(z)| = 1"),
+        (StabilityOf::Rk45, "DP5 (RK45) |R(z)| = 1"),
     ] {
         let segs = boundary(m, (-4.5, 2.5), (-4.4, 4.4), 281);
         plot = plot.with(Series::new(

@@ -99,7 +99,7 @@ pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
         let mut d = sc.truth[0];
         for s in 0..sc.t.len() - 1 {
             let e = sc.euler[s];
-            d += reckon::models::body3d::rotation(e[0], e[1], e[2]) * sc.body_velocity[s] * sc.dt;
+            d += reckon::vehicles::body3d::rotation(e[0], e[1], e[2]) * sc.body_velocity[s] * sc.dt;
         }
         (d - sc.truth[sc.truth.len() - 1]).xy().norm()
     };

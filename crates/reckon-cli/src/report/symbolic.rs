@@ -5,8 +5,8 @@
 use super::{Report, Res};
 use crate::plot::{Plot, Series, Style};
 use rand::{Rng, SeedableRng, rngs::StdRng};
-use reckon::models::{bicycle, body3d, carlike, unicycle};
 use reckon::symbolic::{self, Traced};
+use reckon::vehicles::{bicycle, body3d, carlike, unicycle};
 use std::path::Path;
 
 /// A hand-derived entry: its formula as a reader writes it and its value at `(x, u)`.
@@ -219,7 +219,7 @@ pub(super) fn section(r: &mut Report, dir: &Path) -> Res {
 
     // the Brusselator's pattern
     let n = 20;
-    let tr = symbolic::trace(&reckon::problems::brusselator(n), 2 * n)?;
+    let tr = symbolic::trace(&reckon::studies::problems::brusselator(n), 2 * n)?;
     let p = tr.pattern();
     // row 1 at the top, as a matrix is written: a flipped y axis, not negative rows
     let pts: Vec<(f64, f64)> = p.entries().map(|(i, j)| (j as f64 + 1.0, i as f64 + 1.0)).collect();

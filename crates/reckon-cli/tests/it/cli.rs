@@ -1,9 +1,9 @@
 //! The `reckon simulate` and `reckon odometry` contract: round trips and every bad input.
 
 use nalgebra::vector;
-use reckon::methods::{Dopri5, Exact};
-use reckon::models::{bicycle, carlike, unicycle};
+use reckon::methods::{Exact, Rk45};
 use reckon::reckoning::encoders::{DiffDrive, Update, odometry};
+use reckon::vehicles::{bicycle, carlike, unicycle};
 use reckon::{Controls, Options, Problem};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -200,7 +200,7 @@ fn simulate_bicycle_and_carlike_with_parameters() {
     let sol = Problem::new(carlike::model(2.5), vector![0.0, 0.0, 0.0, 0.0], (0.0, 4.0))
         .controls(controls)
         .solve(
-            Dopri5::default(),
+            Rk45::default(),
             &Options::default().rtol(1e-10).atol(1e-10).dense(false),
         )
         .unwrap();

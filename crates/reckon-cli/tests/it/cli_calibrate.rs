@@ -117,8 +117,8 @@ fn malformed_poses_name_the_line() {
 fn umbmark_from_a_log_matches_the_library() {
     use nalgebra::{Vector2, Vector3};
     use reckon::reckoning::drift::square;
+    use reckon::reckoning::encoder_sim::{EncoderErrors, simulate};
     use reckon::reckoning::encoders::{DiffDrive, Update, odometry};
-    use reckon::reckoning::errors::{EncoderErrors, simulate};
     let robot = DiffDrive::new(0.1, 0.5, 2048.0).unwrap();
     let e = EncoderErrors {
         left_scale: 1.002,

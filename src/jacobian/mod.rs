@@ -4,25 +4,23 @@
 //! A model offers one through [`System::sparse_jacobian`](crate::System::sparse_jacobian):
 //! a traced [`model!`](crate::model) gives the compiled symbolic evaluator
 //! ([`crate::symbolic`]); the implicit methods then factor `I − c·J` with faer's sparse LU
-//! ([`SparseLu`]) when [`Options::linear_solver`](crate::Options::linear_solver) chooses
+//! ([`SparseLu`](crate::linalg::SparseLu)) when [`Options::linear_solver`](crate::Options::linear_solver) chooses
 //! it. A model that cannot be traced can still give one by column colouring
 //! ([`colour::Coloured`] over its dual-number body).
 
+pub(crate) mod choice;
 pub mod colour;
-mod lu;
 
-pub use lu::SparseLu;
-
-/// [`LinearSolver::Auto`](crate::options::LinearSolver::Auto) takes the sparse path from
+/// [`LinearSolver::Auto`](crate::jacobian::LinearSolver::Auto) takes the sparse path from
 /// this many states on (64) when the model offers a sparse Jacobian. One factorisation
 /// and solve of `I − c·J` in BRUSS 1-D's pattern (≤ 4 non-zeros per column), faer's
-/// dense LU against [`SparseLu`]: 1.5 µs each at 8 states, dense/sparse 1.6× at 32,
+/// dense LU against [`SparseLu`](crate::linalg::SparseLu): 1.5 µs each at 8 states, dense/sparse 1.6× at 32,
 /// 4.8× at 64, 40× at 256, 350× at 1 024 (`examples/sparse_scaling.rs crossover`). Below
 /// 64 the gain is a few microseconds, and fixed-size models (at most 32 states) keep
 /// their stack-allocated dense LU; the model is not even asked for its sparse Jacobian.
 pub const AUTO_MIN_STATES: usize = 64;
 
-/// [`LinearSolver::Auto`](crate::options::LinearSolver::Auto) takes the sparse path only
+/// [`LinearSolver::Auto`](crate::jacobian::LinearSolver::Auto) takes the sparse path only
 /// when `nnz/n²` of `J` is at most this (0.1). Random patterns (the worst case for
 /// fill-in) at density 0.1: the sparse LU is 1.9× slower than the dense one at 64 states
 /// (73 against 40 µs) and 1.3× faster at 256; at 0.05 it is faster at both (1.4×, 1.6×);
@@ -36,7 +34,7 @@ pub const AUTO_MAX_DENSITY: f64 = 0.1;
 /// `(row_idx[k], j)`).
 ///
 /// ```
-/// use reckon::sparse::Pattern;
+/// use reckon::jacobian::Pattern;
 /// // [[a, 0], [b, c]]: column 0 has rows 0, 1; column 1 has row 1
 /// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]).unwrap();
 /// assert_eq!(p.col_ptr(), &[0, 2, 3]);
@@ -58,7 +56,7 @@ impl Pattern {
     /// for an index `≥ n`.
     ///
     /// ```
-    /// use reckon::sparse::Pattern;
+    /// use reckon::jacobian::Pattern;
     /// assert_eq!(Pattern::from_entries(2, &[(1, 1), (0, 0), (1, 1)]).unwrap().nnz(), 2);
     /// let e = Pattern::from_entries(2, &[(0, 0), (2, 1)]).unwrap_err();
     /// assert_eq!(e.to_string(), "invalid pattern: entry (2, 1) is outside the 2 × 2 matrix");
@@ -108,7 +106,7 @@ impl Pattern {
     /// when its `n²` row indices cannot be held (`n²` overflows, or the allocation fails).
     ///
     /// ```
-    /// use reckon::sparse::Pattern;
+    /// use reckon::jacobian::Pattern;
     /// assert_eq!(Pattern::dense(3).unwrap().nnz(), 9);
     /// let e = Pattern::dense(1 << 40).unwrap_err();
     /// assert!(e.to_string().starts_with("invalid pattern: a dense 1099511627776 × 1099511627776"), "{e}");
@@ -162,7 +160,7 @@ impl Pattern {
     /// for an index outside the matrix too).
     ///
     /// ```
-    /// use reckon::sparse::Pattern;
+    /// use reckon::jacobian::Pattern;
     /// let p = Pattern::from_entries(2, &[(0, 0), (1, 1)]).unwrap();
     /// assert_eq!((p.position(1, 1), p.position(0, 2), p.position(5, 0)), (Some(1), None, None));
     /// ```
@@ -217,4 +215,48 @@ pub(crate) fn check_values(values: &[f64], nnz: usize) -> crate::Result<()> {
         "values",
         format!("{} values for a pattern of {nnz} non-zeros", values.len()),
     ))
+}
+
+/// The linear algebra of the implicit methods ([`ImplicitEuler`](crate::methods::ImplicitEuler),
+/// [`Bdf`](crate::methods::Bdf), [`Rodas5P`](crate::methods::Rodas5P), [`Auto`](crate::methods::Auto)'s
+/// BDF): each factors `M = a·I + b·J` (`I − c·J` for Newton, `I/(hγ) − J` for Rodas5P)
+/// and solves with it.
+///
+/// - `Dense`: `J` from [`System::jacobian`](crate::System::jacobian) into an `n × n`
+///   matrix, nalgebra's stack LU for fixed sizes, faer's partial-pivoting LU for `DVector`.
+/// - `Sparse`: `J`'s non-zeros from the model's
+///   [`System::sparse_jacobian`](crate::System::sparse_jacobian), faer's sparse LU of `M`
+///   (pattern `J ∪ I`, analysed once; [`SparseLu`](crate::linalg::SparseLu)); no `n × n`
+///   storage. A model without a sparse Jacobian is refused
+///   ([`Error::InvalidInput`](crate::Error::InvalidInput) `"linear_solver"`) when an
+///   implicit method starts.
+/// - `Auto` (default): sparse when the model offers a sparse Jacobian, the state has at
+///   least [`AUTO_MIN_STATES`](crate::jacobian::AUTO_MIN_STATES) = 64 components and `J`'s
+///   density `nnz/n²` is at most [`AUTO_MAX_DENSITY`](crate::jacobian::AUTO_MAX_DENSITY) = 0.1;
+///   dense otherwise (the model is not even asked below 64 states).
+///
+/// Explicit methods need no `J` and ignore the choice.
+///
+/// ```
+/// use reckon::{model, methods::ImplicitEuler, LinearSolver, Error, Options, Problem};
+/// use nalgebra::vector;
+/// // a body that branches on the state cannot be traced: no sparse Jacobian
+/// let f = model!(|_t, x: [S; 1]| vector![if x[0] > S::from(2.0) { S::from(2.0) } else { -x[0].clone() }]);
+/// let p = Problem::new(&f, vector![1.0], (0.0, 1.0));
+/// assert_eq!(Options::default().linear_solver, LinearSolver::Auto);
+/// let o = Options::default().rtol(1e-3).atol(1e-3);
+/// assert!(p.solve(ImplicitEuler::default(), &o).is_ok()); // dense
+/// let forced = o.linear_solver(LinearSolver::Sparse);
+/// let e = p.solve(ImplicitEuler::default(), &forced).unwrap_err();
+/// assert!(matches!(e, Error::InvalidInput { what: "linear_solver", .. }));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LinearSolver {
+    /// Sparse for large models with a sparse Jacobian, dense otherwise.
+    #[default]
+    Auto,
+    /// Always the dense `n × n` Jacobian and LU.
+    Dense,
+    /// Always the model's sparse Jacobian and faer's sparse LU.
+    Sparse,
 }

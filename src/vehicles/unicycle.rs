@@ -6,7 +6,7 @@ use nalgebra::{Const, Vector3};
 /// `x' = v cos θ`, `y' = v sin θ`, `θ' = ω` with `u = (v, ω)` held.
 ///
 /// ```
-/// use reckon::{models::unicycle, System};
+/// use reckon::{vehicles::unicycle, System};
 /// use nalgebra::vector;
 /// let mut dx = vector![0.0, 0.0, 0.0];
 /// unicycle::model().rhs(0.0, &vector![0.0, 0.0, 0.0], &[2.0, 0.5], &mut dx);
@@ -31,7 +31,7 @@ pub fn sinc(z: f64) -> f64 {
 /// `Δθ = ωh`, `d = v·h·sinc(Δθ/2)`, `x₁ = x + d cos(θ + Δθ/2)`, `y₁ = y + d sin(θ + Δθ/2)`, `θ₁ = θ + Δθ`.
 ///
 /// ```
-/// use reckon::models::unicycle::flow;
+/// use reckon::vehicles::unicycle::flow;
 /// use nalgebra::vector;
 /// // a quarter circle of radius 1: v = 1, ω = 1 for π/2
 /// let x = flow(0.0, &vector![0.0, 0.0, 0.0], &[1.0, 1.0], std::f64::consts::FRAC_PI_2);
@@ -48,13 +48,13 @@ pub fn flow(_t: f64, x: &Vector3<f64>, u: &[f64], h: f64) -> Vector3<f64> {
     Vector3::new(x[0] + d * mid.cos(), x[1] + d * mid.sin(), x[2] + dth)
 }
 
-/// [`flow`] as a value that is also a [`DualFlow`](crate::sensitivity::DualFlow): the
+/// [`flow`] as a value that is also a [`DualFlow`](crate::model::DualFlow): the
 /// exact arc at dual `x`, so that [`Exact`](crate::methods::Exact) gives the exact
 /// sensitivities `∂x(t)/∂x₀` ([`crate::sensitivity::solve`]): `∂φ_h/∂x = [[1, 0, −d sin m], [0, 1, d cos m], [0, 0, 1]]`
 /// with `m = θ + Δθ/2`.
 ///
 /// ```
-/// use reckon::{methods::Flow, models::unicycle};
+/// use reckon::{model::Flow, vehicles::unicycle};
 /// use nalgebra::vector;
 /// let (x, u) = (vector![1.0, 2.0, 0.3], [1.5, 0.4]);
 /// let mut out = vector![0.0, 0.0, 0.0];
@@ -64,14 +64,14 @@ pub fn flow(_t: f64, x: &Vector3<f64>, u: &[f64], h: f64) -> Vector3<f64> {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ExactFlow;
 
-impl crate::methods::Flow<Const<3>> for ExactFlow {
+impl crate::model::Flow<Const<3>> for ExactFlow {
     #[inline(always)]
     fn flow(&self, t: f64, x: &Vector3<f64>, u: &[f64], h: f64, out: &mut Vector3<f64>) {
         *out = flow(t, x, u, h);
     }
 }
 
-impl crate::sensitivity::DualFlow<Const<3>> for ExactFlow {
+impl crate::model::DualFlow<Const<3>> for ExactFlow {
     fn flow_dual(
         &self,
         _t: f64,

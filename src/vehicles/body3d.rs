@@ -7,7 +7,7 @@ use nalgebra::{Const, Matrix3, Vector3};
 /// `R = Rz(ψ)·Ry(θ)·Rx(φ)`: body frame (x forward, y left, z up) to world frame.
 ///
 /// ```
-/// use reckon::models::body3d::rotation;
+/// use reckon::vehicles::body3d::rotation;
 /// use nalgebra::vector;
 /// // yaw 90°: body x points along world y
 /// let r = rotation(0.0, 0.0, std::f64::consts::FRAC_PI_2);
@@ -37,7 +37,7 @@ pub fn rotation<S: num_dual::DualNum<Primitive = f64> + Copy>(roll: S, pitch: S,
 /// `p' = R(φ, θ, ψ)·v_body` with inputs `u = (φ, θ, ψ, v_x, v_y, v_z)` held.
 ///
 /// ```
-/// use reckon::{models::body3d, System};
+/// use reckon::{vehicles::body3d, System};
 /// use nalgebra::vector;
 /// let mut dp = vector![0.0, 0.0, 0.0];
 /// body3d::model().rhs(0.0, &vector![0.0, 0.0, 0.0], &[0.0, 0.0, std::f64::consts::PI, 1.0, 0.0, 0.5], &mut dp);
@@ -54,7 +54,7 @@ pub fn model() -> impl crate::DualSystem<Const<3>> + Clone {
 /// Exact flow with held angles and body velocities: `p₁ = p + h·R·v_body`.
 ///
 /// ```
-/// use reckon::models::body3d::flow;
+/// use reckon::vehicles::body3d::flow;
 /// use nalgebra::vector;
 /// let p = flow(0.0, &vector![1.0, 1.0, -5.0], &[0.0, 0.0, 0.0, 2.0, 0.0, 0.0], 1.5);
 /// assert_eq!(p, vector![4.0, 1.0, -5.0]);

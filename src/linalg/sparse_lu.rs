@@ -2,7 +2,7 @@
 //! column ordering, elimination tree, supernodal or simplicial structure) once, numeric
 //! refactorisations with partial pivoting after, reusing every buffer.
 
-use super::Pattern;
+use crate::jacobian::Pattern;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::lu::{LuRef, NumericLu, SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -20,7 +20,7 @@ use faer::{Conj, MatMut, Par};
 /// (`Par::Seq`): the same numbers on every run.
 ///
 /// ```
-/// use reckon::sparse::{Pattern, SparseLu};
+/// use reckon::{jacobian::Pattern, linalg::SparseLu};
 /// // [[4, 1], [2, 3]] in CSC order: (0,0), (1,0), (0,1), (1,1)
 /// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]).unwrap();
 /// let mut lu = SparseLu::new(&p).unwrap();
@@ -87,7 +87,7 @@ impl SparseLu {
     /// one value per non-zero of the pattern.
     ///
     /// ```
-    /// use reckon::sparse::{Pattern, SparseLu};
+    /// use reckon::{jacobian::Pattern, linalg::SparseLu};
     /// let p = Pattern::from_entries(2, &[(0, 0), (1, 1)]).unwrap();
     /// let mut lu = SparseLu::new(&p).unwrap();
     /// assert_eq!(lu.factor(&[2.0, 4.0]), Ok(true));
@@ -149,7 +149,7 @@ impl SparseLu {
     /// is none or `b` does not have `n` entries.
     ///
     /// ```
-    /// use reckon::sparse::{Pattern, SparseLu};
+    /// use reckon::{jacobian::Pattern, linalg::SparseLu};
     /// let p = Pattern::from_entries(2, &[(0, 0), (1, 1)]).unwrap();
     /// let mut lu = SparseLu::new(&p).unwrap();
     /// let mut b = [2.0, 8.0];

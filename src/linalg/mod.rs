@@ -1,13 +1,18 @@
-//! LU factorisation of the Newton iteration matrix `M = I − h·J`, chosen by the
-//! state dimension: nalgebra's stack-allocated LU for fixed sizes (`Const<N>`),
-//! faer's partial-pivoting LU for dynamic sizes (`Dyn`); and the iteration matrix that
-//! every implicit method shares, dense or sparse ([`crate::sparse`]).
+//! Linear algebra, below the model: LU factorisation chosen by the state dimension
+//! (nalgebra's stack-allocated LU for fixed sizes `Const<N>`, faer's partial-pivoting LU
+//! for `Dyn`), faer's sparse LU for a fixed [`Pattern`](crate::jacobian::Pattern)
+//! ([`SparseLu`]), the matrix exponential ([`expm`]) and restarted Arnoldi for the
+//! spectrum of a large sparse matrix ([`arnoldi`]). The Newton iteration matrix
+//! `I − h·J` that the implicit methods share is built on these in `methods`.
 
 use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, OVector, SMatrix, SVector};
 
+pub mod arnoldi;
 pub mod expm;
-mod iteration;
-pub(crate) use iteration::IterationMatrix;
+
+mod sparse_lu;
+
+pub use sparse_lu::SparseLu;
 
 /// A factorisation of a square matrix that can solve `M·y = b` in place.
 pub trait Lu<D: nalgebra::Dim>: Sized

@@ -2,10 +2,11 @@
 //! Newton, `I/(hγ) − J` for Rosenbrock), with the Jacobian it is built from: dense
 //! (`n × n`, the [`LuDim`] backend) or sparse (`J`'s non-zeros and faer's sparse LU).
 
-use super::{Lu, LuDim};
 use crate::error::Result;
-use crate::sparse::{Pattern, SparseLu};
-use crate::system::{Eval, System};
+use crate::jacobian::Pattern;
+use crate::linalg::SparseLu;
+use crate::linalg::{Lu, LuDim};
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OMatrix, OVector};
 
@@ -87,7 +88,7 @@ where
             && nb > 0
             && x0.len().is_multiple_of(nb)
             && x0.len() > nb
-            && f.sparse.choice != crate::options::LinearSolver::Sparse
+            && f.sparse.choice != crate::jacobian::LinearSolver::Sparse
         {
             return Ok(IterationMatrix::Block {
                 j: OMatrix::<f64, D, D>::zeros_generic(r, r),
@@ -261,9 +262,9 @@ impl SparseMatrix {
 #[cfg(test)]
 mod tests {
     use super::IterationMatrix;
-    use crate::options::LinearSolver;
-    use crate::problems::{brusselator, brusselator_y0};
-    use crate::system::Eval;
+    use crate::jacobian::LinearSolver;
+    use crate::model::Eval;
+    use crate::studies::problems::{brusselator, brusselator_y0};
 
     /// `‖J‖∞` and the solves agree between the dense and the sparse variant.
     #[test]

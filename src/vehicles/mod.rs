@@ -10,7 +10,7 @@ pub mod unicycle;
 /// Wrap an angle to `(−π, π]` for display (integration keeps θ unwrapped).
 ///
 /// ```
-/// use reckon::models::wrap_angle;
+/// use reckon::vehicles::wrap_angle;
 /// assert!((wrap_angle(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-15);
 /// assert!((wrap_angle(-0.5) + 0.5).abs() < 1e-15);
 /// ```

@@ -17,7 +17,7 @@ use num_dual::DualDVec64;
 /// other entries.
 ///
 /// ```
-/// use reckon::sparse::{Pattern, colour::Colouring};
+/// use reckon::jacobian::{Pattern, colour::Colouring};
 /// // tridiagonal 5 × 5: three colours (columns j, j + 3, … share no row)
 /// let e: Vec<_> = (0..5usize).flat_map(|i| [(i, i.saturating_sub(1)), (i, i), (i, (i + 1).min(4))]).collect();
 /// let c = Colouring::greedy(&Pattern::from_entries(5, &e).unwrap());
@@ -94,7 +94,7 @@ impl Colouring {
 /// entries of the same colour.
 ///
 /// ```
-/// use reckon::sparse::{Pattern, SparseJacobian, colour::Coloured};
+/// use reckon::jacobian::{Pattern, SparseJacobian, colour::Coloured};
 /// use reckon::num_dual::DualDVec64;
 /// use nalgebra::DVector;
 /// // f_i = x_i² + x_{i+1} (cyclic): J = 2 diag(x) + shift
@@ -130,7 +130,7 @@ where
     /// `x0`), for a model that has no pattern of its own (structural at those points only).
     ///
     /// ```
-    /// use reckon::sparse::{SparseJacobian, colour::Coloured};
+    /// use reckon::jacobian::{SparseJacobian, colour::Coloured};
     /// use reckon::num_dual::DualDVec64;
     /// use nalgebra::{DVector, dvector};
     /// let g = |_t: f64, x: &DVector<DualDVec64>, _u: &[f64]| dvector![x[0].clone() * x[1].clone(), x[1].clone()];
@@ -196,7 +196,7 @@ where
 /// pattern at once).
 ///
 /// ```
-/// use reckon::sparse::colour::detect_pattern;
+/// use reckon::jacobian::colour::detect_pattern;
 /// use reckon::num_dual::DualDVec64;
 /// use nalgebra::{DVector, dvector};
 /// // f = (x₀·x₁, x₁): ∂f₀/∂x₀ = x₁ is 0 at x0 but not after the perturbation

@@ -1,8 +1,14 @@
-//! An initial-value problem: model, initial state, span, held inputs, events.
+//! An initial-value problem: model, initial state, span, held inputs, events; the
+//! options of a solve and its solution.
 
-use crate::controls::Controls;
-use crate::events::Event;
-use crate::system::System;
+pub mod controls;
+pub mod events;
+pub mod options;
+pub mod solution;
+
+use crate::model::System;
+use crate::problem::controls::Controls;
+use crate::problem::events::Event;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
@@ -14,11 +20,11 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 /// `1.7e12` ms) cost no accuracy in the step sizes; times are reported as given.
 ///
 /// ```
-/// use reckon::{model, Problem, Options, methods::Dopri5};
+/// use reckon::{model, Problem, Options, methods::Rk45};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]); // harmonic oscillator
 /// let sol = Problem::new(&f, vector![1.0, 0.0], (0.0, std::f64::consts::PI))
-///     .solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12))
+///     .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12))
 ///     .unwrap();
 /// assert!((sol.last().1[0] + 1.0).abs() < 1e-9); // cos π = −1
 /// ```
@@ -67,7 +73,7 @@ where
     /// inputs with [`Integrator::set_inputs`] as they arrive.
     ///
     /// ```
-    /// use reckon::{methods::Exact, models::unicycle, Options, Problem};
+    /// use reckon::{methods::Exact, vehicles::unicycle, Options, Problem};
     /// use nalgebra::vector;
     /// let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 3.0)).inputs(vec![2.0, 0.0]);
     /// let sol = p.solve(Exact::new(unicycle::flow), &Options::default()).unwrap();

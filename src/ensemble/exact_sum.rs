@@ -236,7 +236,7 @@ impl ExactSum {
     /// gigabytes at the next merge).
     ///
     /// ```
-    /// use reckon::ensemble::exact::{ExactSum, StoredSum};
+    /// use reckon::ensemble::exact_sum::{ExactSum, StoredSum};
     /// let mut s = ExactSum::default();
     /// s.add(-2.5);
     /// assert_eq!(ExactSum::from_stored(&s.to_stored()).unwrap().value(), -2.5);

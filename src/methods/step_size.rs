@@ -1,66 +1,9 @@
 //! Step-size control: tolerances, the weighted RMS error norm, Hairer's PI
 //! controller and Hairer's initial step (HNW ODE I §II.4, `dopri5.f` DOPCOR/HINIT).
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
-
-/// A tolerance, one value for every component or one per component.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Tolerance {
-    /// The same value for every component.
-    Scalar(f64),
-    /// One value per component (length must equal the state dimension).
-    PerComponent(Vec<f64>),
-}
-
-impl From<f64> for Tolerance {
-    fn from(v: f64) -> Self {
-        Tolerance::Scalar(v)
-    }
-}
-
-impl From<Vec<f64>> for Tolerance {
-    fn from(v: Vec<f64>) -> Self {
-        Tolerance::PerComponent(v)
-    }
-}
-
-impl Tolerance {
-    /// Expand to one value per component, checking sign and length.
-    pub(crate) fn expand<D: Dim>(&self, what: &'static str, dim: D) -> Result<OVector<f64, D>>
-    where
-        DefaultAllocator: Allocator<D>,
-    {
-        let n = dim.value();
-        // the given values (one for a scalar) are checked, not the n copies of them
-        let given: &[f64] = match self {
-            Tolerance::Scalar(a) => std::slice::from_ref(a),
-            Tolerance::PerComponent(v) => {
-                if v.len() != n {
-                    return Err(Error::invalid(
-                        what,
-                        format!("{} values given for a state of {} components", v.len(), n),
-                    ));
-                }
-                v
-            }
-        };
-        if let Some(bad) = given.iter().find(|a| !(a.is_finite() && **a >= 0.0)) {
-            return Err(Error::invalid(
-                what,
-                format!("must be finite and non-negative, got {}", crate::error::Brief(*bad)),
-            ));
-        }
-        let v = match self {
-            Tolerance::Scalar(a) => OVector::<f64, D>::from_element_generic(dim, nalgebra::U1, *a),
-            Tolerance::PerComponent(v) => {
-                OVector::<f64, D>::from_iterator_generic(dim, nalgebra::U1, v.iter().copied())
-            }
-        };
-        Ok(v)
-    }
-}
 
 /// Tolerances expanded to the state dimension.
 #[derive(Debug, Clone)]
@@ -112,7 +55,7 @@ where
     /// says which methods the driver applies it for.
     ///
     /// ```
-    /// use reckon::control::Weights;
+    /// use reckon::methods::step_size::Weights;
     /// use nalgebra::vector;
     /// let mut w = Weights::new(vector![1e-1, 1e-3, 1e-6], vector![1e-2, 1e-3, 1e-9], 3);
     /// w.tighten_loose();
@@ -143,7 +86,7 @@ where
     /// components is kept as [`uncontrolled`](Self::uncontrolled).
     ///
     /// ```
-    /// use reckon::control::Weights;
+    /// use reckon::methods::step_size::Weights;
     /// use nalgebra::vector;
     /// let w = Weights::new(vector![0.0, 0.0, 0.0], vector![1.0, 2.0, 1.0], 2);
     /// let e = w.norm(&vector![3.0, 8.0, 1e9], &vector![0.0, 0.0, 0.0], &vector![0.0, 0.0, 0.0]);
@@ -206,7 +149,7 @@ where
     /// against itself.
     ///
     /// ```
-    /// use reckon::control::Weights;
+    /// use reckon::methods::step_size::Weights;
     /// use nalgebra::vector;
     /// let w = Weights::new(vector![1e-6, 1e-6, 1e-6], vector![1e-9, 1e-9, 1e-9], 1);
     /// // the last two are a column of S, near 600 and near 0; errors 6 and 0
@@ -267,7 +210,7 @@ impl Controller {
     /// Hairer's defaults for an error estimator of order `q` with PI exponent `beta`.
     ///
     /// ```
-    /// let mut c = reckon::control::Controller::new(4, 0.04);
+    /// let mut c = reckon::methods::step_size::Controller::new(4, 0.04);
     /// assert!((c.alpha - 0.17).abs() < 1e-15); // 1/5 − 0.75·0.04
     /// // first accepted step: err_old = 1e-4, factor = 0.9·err^−0.17·(1e-4)^0.04
     /// let f = c.accept(0.5);

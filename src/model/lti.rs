@@ -25,9 +25,9 @@
 
 use crate::error::{Error, Result};
 use crate::linalg::expm::zoh;
-use crate::methods::Flow;
-use crate::sensitivity::DualFlow;
-use crate::system::{DualSystem, System};
+use crate::model::DualFlow;
+use crate::model::Flow;
+use crate::model::{DualSystem, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DefaultAllocator, Dim, OMatrix, OVector, U1};
 use num_dual::{Derivative, DualVec64};

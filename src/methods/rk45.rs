@@ -3,9 +3,9 @@
 //! 4th-order dense output, and Hairer's stiffness test.
 
 use super::{Method, Outcome};
-use crate::control::{Controller, Weights};
 use crate::error::Result;
-use crate::system::{Eval, System};
+use crate::methods::step_size::{Controller, Weights};
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
@@ -103,14 +103,14 @@ where
 /// is the next step's `k₁`), six new `f` evaluations per step.
 ///
 /// ```
-/// use reckon::{model, methods::Dopri5, Options, Problem};
+/// use reckon::{model, methods::Rk45, Options, Problem};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
-/// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Dopri5::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
+/// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
 /// assert!((sol.last().1[0] - (-1.0f64).exp()).abs() < 1e-10);
 /// ```
 #[derive(Debug, Clone)]
-pub struct Dopri5<D: Dim>
+pub struct Rk45<D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
@@ -118,20 +118,20 @@ where
     fsal: bool,
 }
 
-impl<D: Dim> Dopri5<D>
+impl<D: Dim> Rk45<D>
 where
     DefaultAllocator: Allocator<D>,
 {
     /// A fresh stepper (work space is allocated by the integrator's setup).
     pub fn new() -> Self {
-        Dopri5 {
+        Rk45 {
             work: None,
             fsal: false,
         }
     }
 }
 
-impl<D: Dim> Default for Dopri5<D>
+impl<D: Dim> Default for Rk45<D>
 where
     DefaultAllocator: Allocator<D>,
 {
@@ -140,7 +140,7 @@ where
     }
 }
 
-impl<D: Dim> Method<D> for Dopri5<D>
+impl<D: Dim> Method<D> for Rk45<D>
 where
     DefaultAllocator: Allocator<D>,
 {
@@ -181,7 +181,7 @@ where
         adaptive: bool,
     ) -> Result<Outcome> {
         let Some(Work { k, y, y6 }) = self.work.as_mut() else {
-            return Err(crate::Error::invalid("method", "Dopri5::step called before init"));
+            return Err(crate::Error::invalid("method", "Rk45::step called before init"));
         };
         let [k1, k2, k3, k4, k5, k6, k7] = k;
         if !self.fsal {
@@ -280,14 +280,14 @@ where
         x_new: &OVector<f64, D>,
     ) -> crate::Error {
         let Some(w) = self.work.as_ref() else {
-            return crate::Error::invalid("method", "Dopri5::diagnose called before init");
+            return crate::Error::invalid("method", "Rk45::diagnose called before init");
         };
         for (i, k) in w.k.iter().enumerate() {
-            if let Err(e) = crate::system::finite(k.as_slice(), t + C[i] * h, crate::error::Quantity::Derivative) {
+            if let Err(e) = crate::model::finite(k.as_slice(), t + C[i] * h, crate::error::Quantity::Derivative) {
                 return e;
             }
         }
-        crate::system::finite(x_new.as_slice(), t + h, crate::error::Quantity::State)
+        crate::model::finite(x_new.as_slice(), t + h, crate::error::Quantity::State)
             .err()
             .unwrap_or(crate::Error::NonFinite {
                 t: t + h,
@@ -299,7 +299,7 @@ where
         if let Some(w) = self.work.as_mut() {
             // a swap: k₇ = f(t₁, x₁) is the next step's k₁, and the accepted step's own
             // k₁ stays readable in k₇'s slot (which the next step overwrites) for
-            // [`Dopri5::stages`]
+            // [`Rk45::stages`]
             let [k1, .., k7] = &mut w.k;
             std::mem::swap(k1, k7);
         }
@@ -322,7 +322,7 @@ where
         c: &mut [OVector<f64, D>],
     ) -> Result<()> {
         let Some(Work { k, .. }) = self.work.as_ref() else {
-            return Err(crate::Error::invalid("method", "Dopri5::dense called before init"));
+            return Err(crate::Error::invalid("method", "Rk45::dense called before init"));
         };
         for i in 0..x.len() {
             let r = contd5(h, x[i], x_new[i], |j| k[j][i]);
@@ -341,7 +341,7 @@ where
     }
 }
 
-impl<D: Dim> Dopri5<D>
+impl<D: Dim> Rk45<D>
 where
     DefaultAllocator: Allocator<D>,
 {
@@ -385,7 +385,7 @@ where
 /// decaying mode. The embedded estimate fails far outside the method's accuracy region
 /// (at `z = 6.3` it reads under 10 % where the step is 41 % short of `e^z`); this does
 /// not. For the watched components of a sensitivity solve
-/// ([`Weights::uncontrolled`](crate::control::Weights::uncontrolled)).
+/// ([`Weights::uncontrolled`](crate::methods::step_size::Weights::uncontrolled)).
 pub(crate) fn growth_error(h: f64, k7: &[f64], k6: &[f64], y7: &[f64], y6: &[f64]) -> f64 {
     let (mut num, mut den) = (0.0, 0.0);
     for i in 0..k7.len() {

@@ -7,7 +7,7 @@ use nalgebra::{Const, Vector3};
 /// `x' = v cos θ`, `y' = v sin θ`, `θ' = v·tan α / L` with `u = (v, α)` held.
 ///
 /// ```
-/// use reckon::{models::bicycle, System};
+/// use reckon::{vehicles::bicycle, System};
 /// use nalgebra::vector;
 /// let mut dx = vector![0.0, 0.0, 0.0];
 /// bicycle::model(0.5).rhs(0.0, &vector![0.0, 0.0, 0.0], &[2.0, std::f64::consts::FRAC_PI_4], &mut dx);
@@ -27,7 +27,7 @@ pub fn model(wheelbase: f64) -> impl crate::DualSystem<Const<3>> + Clone {
 /// small-angle guard.
 ///
 /// ```
-/// use reckon::models::bicycle;
+/// use reckon::vehicles::bicycle;
 /// use nalgebra::vector;
 /// let phi = bicycle::flow(0.5);
 /// // straight: α = 0

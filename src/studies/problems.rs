@@ -210,7 +210,7 @@ pub fn lorenz_y0() -> Vector3<f64> {
 /// `u₀ = u_{n+1} = 1`, `v₀ = v_{n+1} = 3`, on `t ∈ [0, 10]` from [`brusselator_y0`].
 ///
 /// ```
-/// use reckon::{problems::{brusselator, brusselator_y0}, System};
+/// use reckon::{studies::problems::{brusselator, brusselator_y0}, System};
 /// let (f, y0) = (brusselator(3), brusselator_y0(3));
 /// let mut d = y0.clone();
 /// f.rhs(0.0, &y0, &[], &mut d);
@@ -250,7 +250,7 @@ pub fn brusselator(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
 /// `docs/references.md`).
 ///
 /// ```
-/// let y0 = reckon::problems::brusselator_y0(3); // x = ¼, ½, ¾
+/// let y0 = reckon::studies::problems::brusselator_y0(3); // x = ¼, ½, ¾
 /// assert_eq!(y0.len(), 6);
 /// assert!((y0[0] - 1.5).abs() < 1e-15 && (y0[4] - 0.5).abs() < 1e-15);
 /// assert_eq!((y0[1], y0[3], y0[5]), (3.0, 3.0, 3.0));
@@ -266,7 +266,7 @@ pub fn brusselator_y0(n: usize) -> nalgebra::DVector<f64> {
 /// comparison with the book's text and with codes that follow it.
 ///
 /// ```
-/// let y0 = reckon::problems::brusselator_y0_book(3); // x = ¼, ½, ¾
+/// let y0 = reckon::studies::problems::brusselator_y0_book(3); // x = ¼, ½, ¾
 /// assert!((y0[0] - 2.0).abs() < 1e-15 && y0[4].abs() < 1e-15);
 /// assert_eq!(y0[1], 3.0);
 /// ```
@@ -306,7 +306,7 @@ fn brusselator_y0_amplitude(n: usize, a: f64) -> nalgebra::DVector<f64> {
 /// `f(u₀, 0)` values at `n = 32` the tests check.
 ///
 /// ```
-/// use reckon::{problems::{brusselator_2d, brusselator_2d_y0}, System};
+/// use reckon::{studies::problems::{brusselator_2d, brusselator_2d_y0}, System};
 /// let (f, y0) = (brusselator_2d(32), brusselator_2d_y0(32));
 /// let mut du = y0.clone();
 /// f.rhs(0.0, &y0, &[], &mut du);
@@ -345,7 +345,7 @@ pub fn brusselator_2d(n: usize) -> impl crate::DualSystem<Dyn> + Clone {
 ///
 /// ```
 /// // n = 3: x, y ∈ {0, ½, 1}; at (x₁, y₁) = (½, ½) both are 22·(¼)^{3/2} = 2.75, 27/8
-/// let y0 = reckon::problems::brusselator_2d_y0(3);
+/// let y0 = reckon::studies::problems::brusselator_2d_y0(3);
 /// assert_eq!(y0.len(), 18);
 /// assert!((y0[4] - 2.75).abs() < 1e-15 && (y0[9 + 4] - 27.0 / 8.0).abs() < 1e-15);
 /// assert_eq!(y0[0], 0.0); // u at y = 0

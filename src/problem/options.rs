@@ -1,7 +1,9 @@
 //! Integration options: named fields with defaults and chainable setters.
 
-use crate::control::Tolerance;
 use crate::error::{Error, Result};
+use crate::jacobian::LinearSolver;
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// How the step size is chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,50 +67,6 @@ pub struct Options {
     pub error_components: Option<usize>,
 }
 
-/// The linear algebra of the implicit methods ([`ImplicitEuler`](crate::methods::ImplicitEuler),
-/// [`Bdf`](crate::methods::Bdf), [`Rodas5P`](crate::methods::Rodas5P), [`Auto`](crate::methods::Auto)'s
-/// BDF): each factors `M = a·I + b·J` (`I − c·J` for Newton, `I/(hγ) − J` for Rodas5P)
-/// and solves with it.
-///
-/// - `Dense`: `J` from [`System::jacobian`](crate::System::jacobian) into an `n × n`
-///   matrix, nalgebra's stack LU for fixed sizes, faer's partial-pivoting LU for `DVector`.
-/// - `Sparse`: `J`'s non-zeros from the model's
-///   [`System::sparse_jacobian`](crate::System::sparse_jacobian), faer's sparse LU of `M`
-///   (pattern `J ∪ I`, analysed once; [`SparseLu`](crate::sparse::SparseLu)); no `n × n`
-///   storage. A model without a sparse Jacobian is refused
-///   ([`Error::InvalidInput`](crate::Error::InvalidInput) `"linear_solver"`) when an
-///   implicit method starts.
-/// - `Auto` (default): sparse when the model offers a sparse Jacobian, the state has at
-///   least [`AUTO_MIN_STATES`](crate::sparse::AUTO_MIN_STATES) = 64 components and `J`'s
-///   density `nnz/n²` is at most [`AUTO_MAX_DENSITY`](crate::sparse::AUTO_MAX_DENSITY) = 0.1;
-///   dense otherwise (the model is not even asked below 64 states).
-///
-/// Explicit methods need no `J` and ignore the choice.
-///
-/// ```
-/// use reckon::{model, methods::ImplicitEuler, options::LinearSolver, Error, Options, Problem};
-/// use nalgebra::vector;
-/// // a body that branches on the state cannot be traced: no sparse Jacobian
-/// let f = model!(|_t, x: [S; 1]| vector![if x[0] > S::from(2.0) { S::from(2.0) } else { -x[0].clone() }]);
-/// let p = Problem::new(&f, vector![1.0], (0.0, 1.0));
-/// assert_eq!(Options::default().linear_solver, LinearSolver::Auto);
-/// let o = Options::default().rtol(1e-3).atol(1e-3);
-/// assert!(p.solve(ImplicitEuler::default(), &o).is_ok()); // dense
-/// let forced = o.linear_solver(LinearSolver::Sparse);
-/// let e = p.solve(ImplicitEuler::default(), &forced).unwrap_err();
-/// assert!(matches!(e, Error::InvalidInput { what: "linear_solver", .. }));
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum LinearSolver {
-    /// Sparse for large models with a sparse Jacobian, dense otherwise.
-    #[default]
-    Auto,
-    /// Always the dense `n × n` Jacobian and LU.
-    Dense,
-    /// Always the model's sparse Jacobian and faer's sparse LU.
-    Sparse,
-}
-
 /// What a [`Solution`](crate::Solution) keeps: the states at `t0` and at every accepted
 /// step (the default), at every k-th one, at the end only, or at given output times
 /// (`t_eval` in scipy, `saveat` in DifferentialEquations.jl) evaluated from each step's
@@ -117,15 +75,15 @@ pub enum LinearSolver {
 /// [`Solution::at`](crate::Solution::at); `At(times)` works without it.
 ///
 /// ```
-/// use reckon::{model, methods::Dopri5, options::Save, Options, Problem};
+/// use reckon::{model, methods::Rk45, problem::options::Save, Options, Problem};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
 /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
 /// let o = Options::default().rtol(1e-10).atol(1e-12); // dense output off (the default)
-/// let s = p.solve(Dopri5::default(), &o.clone().save(Save::At(vec![0.5, 1.0, 1.5]))).unwrap();
+/// let s = p.solve(Rk45::default(), &o.clone().save(Save::At(vec![0.5, 1.0, 1.5]))).unwrap();
 /// assert_eq!(s.t, [0.5, 1.0, 1.5]);
 /// assert!((s.x[1][0] - (-1.0f64).exp()).abs() < 1e-9);
-/// let e = p.solve(Dopri5::default(), &o.save(Save::End)).unwrap();
+/// let e = p.solve(Rk45::default(), &o.save(Save::End)).unwrap();
 /// assert_eq!(e.t, [0.0, 2.0]); // the start and the end
 /// ```
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -208,16 +166,16 @@ impl Options {
     /// the span; without it, `at` between kept points is [`Error::NoDenseOutput`].
     ///
     /// ```
-    /// use reckon::{model, methods::Dopri5, Error, Options, Problem};
+    /// use reckon::{model, methods::Rk45, Error, Options, Problem};
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
     /// assert!(!Options::default().dense);
-    /// let lean = p.solve(Dopri5::default(), &Options::default()).unwrap();
+    /// let lean = p.solve(Rk45::default(), &Options::default()).unwrap();
     /// assert!(lean.dense_segments().is_empty());
     /// assert!(matches!(lean.at(0.7), Err(Error::NoDenseOutput { t }) if t == 0.7));
     /// let o = Options::default().rtol(1e-9).atol(1e-12).dense(true);
-    /// let sol = p.solve(Dopri5::default(), &o).unwrap();
+    /// let sol = p.solve(Rk45::default(), &o).unwrap();
     /// assert!((sol.at(0.7).unwrap()[0] - (-0.7f64).exp()).abs() < 1e-8);
     /// ```
     pub fn dense(mut self, on: bool) -> Self {
@@ -233,15 +191,15 @@ impl Options {
     /// Control the error of the first `m` components only ([`Options::error_components`]).
     ///
     /// ```
-    /// use reckon::{model, Options, Problem, methods::Dopri5};
+    /// use reckon::{model, Options, Problem, methods::Rk45};
     /// use nalgebra::vector;
     /// // x' = −x with a quadrature q' = x² riding along uncontrolled
     /// let f = model!(|_t, x: [S; 2]| vector![-x[0], x[0] * x[0]]);
     /// let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
-    /// let both = p.solve(Dopri5::default(), &Options::default()).unwrap();
-    /// let one = p.solve(Dopri5::default(), &Options::default().error_components(1)).unwrap();
+    /// let both = p.solve(Rk45::default(), &Options::default()).unwrap();
+    /// let one = p.solve(Rk45::default(), &Options::default().error_components(1)).unwrap();
     /// let g = model!(|_t, x: [S; 1]| vector![-x[0]]);
-    /// let alone = Problem::new(&g, vector![1.0], (0.0, 1.0)).solve(Dopri5::default(), &Options::default()).unwrap();
+    /// let alone = Problem::new(&g, vector![1.0], (0.0, 1.0)).solve(Rk45::default(), &Options::default()).unwrap();
     /// assert_eq!(one.t, alone.t); // the same steps as x alone
     /// assert!(both.t.len() >= one.t.len());
     /// assert!((one.last().1[1] - (1.0 - (-2.0f64).exp()) / 2.0).abs() < 1e-5);
@@ -335,5 +293,62 @@ impl Options {
             ));
         }
         Ok(())
+    }
+}
+
+/// A tolerance, one value for every component or one per component.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Tolerance {
+    /// The same value for every component.
+    Scalar(f64),
+    /// One value per component (length must equal the state dimension).
+    PerComponent(Vec<f64>),
+}
+
+impl From<f64> for Tolerance {
+    fn from(v: f64) -> Self {
+        Tolerance::Scalar(v)
+    }
+}
+
+impl From<Vec<f64>> for Tolerance {
+    fn from(v: Vec<f64>) -> Self {
+        Tolerance::PerComponent(v)
+    }
+}
+
+impl Tolerance {
+    /// Expand to one value per component, checking sign and length.
+    pub(crate) fn expand<D: Dim>(&self, what: &'static str, dim: D) -> Result<OVector<f64, D>>
+    where
+        DefaultAllocator: Allocator<D>,
+    {
+        let n = dim.value();
+        // the given values (one for a scalar) are checked, not the n copies of them
+        let given: &[f64] = match self {
+            Tolerance::Scalar(a) => std::slice::from_ref(a),
+            Tolerance::PerComponent(v) => {
+                if v.len() != n {
+                    return Err(Error::invalid(
+                        what,
+                        format!("{} values given for a state of {} components", v.len(), n),
+                    ));
+                }
+                v
+            }
+        };
+        if let Some(bad) = given.iter().find(|a| !(a.is_finite() && **a >= 0.0)) {
+            return Err(Error::invalid(
+                what,
+                format!("must be finite and non-negative, got {}", crate::error::Brief(*bad)),
+            ));
+        }
+        let v = match self {
+            Tolerance::Scalar(a) => OVector::<f64, D>::from_element_generic(dim, nalgebra::U1, *a),
+            Tolerance::PerComponent(v) => {
+                OVector::<f64, D>::from_iterator_generic(dim, nalgebra::U1, v.iter().copied())
+            }
+        };
+        Ok(v)
     }
 }

@@ -16,7 +16,7 @@ use nalgebra::{Const, Vector3, Vector4};
 /// `x' = v cos θ`, `y' = v sin θ`, `θ' = v·tan γ / L`, `γ' = ω` with `u = (v, ω)` held.
 ///
 /// ```
-/// use reckon::{models::carlike, System};
+/// use reckon::{vehicles::carlike, System};
 /// use nalgebra::vector;
 /// let mut dx = vector![0.0, 0.0, 0.0, 0.0];
 /// carlike::model(2.5).rhs(0.0, &vector![0.0, 0.0, 0.0, 0.1], &[5.0, 0.2], &mut dx);
@@ -76,7 +76,7 @@ const MAX_PANELS: usize = 1 << 16;
 /// step) also gives NaN: shorten the step (`Options::fixed`). Missing inputs give NaN.
 ///
 /// ```
-/// use reckon::models::carlike;
+/// use reckon::vehicles::carlike;
 /// use nalgebra::vector;
 /// let phi = carlike::flow(2.5);
 /// let (x0, u) = (vector![1.0, 2.0, 0.3, 0.2], [5.0, -0.4]);
@@ -150,7 +150,7 @@ pub fn flow(wheelbase: f64) -> impl Fn(f64, &Vector4<f64>, &[f64], f64) -> Vecto
 /// approximation on short steps is enough; [`flow`] is the exact one.
 ///
 /// ```
-/// use reckon::models::carlike;
+/// use reckon::vehicles::carlike;
 /// use nalgebra::vector;
 /// let phi = carlike::midpoint_flow(2.5);
 /// // no steering rate: a circle of radius L / tan γ

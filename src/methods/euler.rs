@@ -1,27 +1,27 @@
 //! Explicit (forward) Euler, the first-order one-stage Runge–Kutta method.
 
 use super::{Method, Outcome};
-use crate::control::Weights;
 use crate::error::Result;
-use crate::system::{Eval, System};
+use crate::methods::step_size::Weights;
+use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// Explicit Euler: `x₁ = x₀ + h·f(t₀, x₀)`, order 1, fixed step only (no error estimate).
 ///
 /// ```
-/// use reckon::{model, methods::ExplicitEuler, Options, Problem, StepSize};
+/// use reckon::{model, methods::Euler, Options, Problem, StepSize};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
 /// let sol = Problem::new(&f, vector![1.0], (0.0, 0.1))
-///     .solve(ExplicitEuler, &Options::default().step(StepSize::Fixed(0.1)))
+///     .solve(Euler, &Options::default().step(StepSize::Fixed(0.1)))
 ///     .unwrap();
 /// assert_eq!(sol.last().1[0], 0.9); // 1 − 0.1·1
 /// ```
 #[derive(Debug, Clone, Copy, Default)]
-pub struct ExplicitEuler;
+pub struct Euler;
 
-impl<D: Dim> Method<D> for ExplicitEuler
+impl<D: Dim> Method<D> for Euler
 where
     DefaultAllocator: Allocator<D>,
 {

@@ -6,7 +6,8 @@
 //! [`SpectralOptions::max_restarts`] restarts is [`Error::NoConvergence`], never a hang.
 
 use crate::error::{Error, Quantity, Result};
-use crate::sparse::{Pattern, SparseLu};
+use crate::jacobian::Pattern;
+use crate::linalg::SparseLu;
 use num_complex::Complex64;
 
 /// From this many states on, the stiffness study estimates the spectrum sparse
@@ -16,7 +17,7 @@ use num_complex::Complex64;
 /// dozen products and solves with `J`, `O(nnz)` each.
 ///
 /// ```
-/// use reckon::studies::spectral::SPARSE_MIN_STATES;
+/// use reckon::linalg::arnoldi::SPARSE_MIN_STATES;
 /// // BRUSS 1-D with N grid points has 2N states: sparse from N = 50
 /// assert_eq!(SPARSE_MIN_STATES, 2 * 50);
 /// ```
@@ -33,7 +34,7 @@ pub const SPARSE_MIN_STATES: usize = 100;
 /// from the Ritz vector, at most `max_restarts` times.
 ///
 /// ```
-/// use reckon::studies::spectral::SpectralOptions;
+/// use reckon::linalg::arnoldi::SpectralOptions;
 /// let o = SpectralOptions::default();
 /// assert_eq!((o.krylov, o.max_restarts), (200, 100));
 /// assert_eq!(o.tol, 1e-4);
@@ -66,8 +67,8 @@ impl Default for SpectralOptions {
 /// `y ← J·x` for `J` with non-zeros `values` in `pattern` (CSC).
 ///
 /// ```
-/// use reckon::sparse::Pattern;
-/// use reckon::studies::spectral::spmv;
+/// use reckon::jacobian::Pattern;
+/// use reckon::linalg::arnoldi::spmv;
 /// // [[2, 0], [1, 3]]: column 0 rows 0, 1; column 1 row 1
 /// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (1, 1)]).unwrap();
 /// let mut y = [0.0; 2];
@@ -93,8 +94,8 @@ pub fn spmv(pattern: &Pattern, values: &[f64], x: &[f64], y: &mut [f64]) {
 /// `Jᵀ` has the same eigenvalues). Rigorous and `O(nnz)`.
 ///
 /// ```
-/// use reckon::sparse::Pattern;
-/// use reckon::studies::spectral::gershgorin;
+/// use reckon::jacobian::Pattern;
+/// use reckon::linalg::arnoldi::gershgorin;
 /// // [[-4, 1], [2, -1]]: row sums 5, 3; column sums 6, 2
 /// let p = Pattern::from_entries(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]).unwrap();
 /// assert_eq!(gershgorin(&p, &[-4.0, 2.0, 1.0, -1.0]), 5.0);
@@ -119,7 +120,7 @@ pub fn gershgorin(pattern: &Pattern, values: &[f64]) -> f64 {
 /// [`dominant`] returns.
 ///
 /// ```
-/// use reckon::studies::spectral::{dominant, SpectralOptions};
+/// use reckon::linalg::arnoldi::{dominant, SpectralOptions};
 /// let mut op = |x: &[f64], y: &mut [f64]| { y[0] = 3.0 * x[0]; y[1] = -7.0 * x[1]; };
 /// let d = dominant(2, &mut op, &SpectralOptions::default(), None, "test", 0.0).unwrap();
 /// assert!((d.value.re + 7.0).abs() < 1e-12 && d.residual < 1e-12 && d.products == 2);
@@ -171,7 +172,7 @@ fn start_vector(n: usize) -> Vec<f64> {
 /// [`Error::NoConvergence`].
 ///
 /// ```
-/// use reckon::studies::spectral::{dominant, SpectralOptions};
+/// use reckon::linalg::arnoldi::{dominant, SpectralOptions};
 /// use reckon::Error;
 /// // diag(1, 2, …, 50): θ = 50
 /// let mut op = |x: &[f64], y: &mut [f64]| {
@@ -204,7 +205,7 @@ pub fn dominant(
 /// solution.
 ///
 /// ```
-/// use reckon::studies::spectral::{dominant_from, SpectralOptions};
+/// use reckon::linalg::arnoldi::{dominant_from, SpectralOptions};
 /// let mut op = |x: &[f64], y: &mut [f64]| {
 ///     for i in 0..x.len() { y[i] = -((i + 1) as f64) * x[i]; }
 /// };
@@ -377,8 +378,8 @@ fn ritz_vector(theta: Complex64, y: &[Complex64], v: &[f64], n: usize) -> Vec<f6
 /// [`sparse_spectrum`] estimates of `J` at one point.
 ///
 /// ```
-/// use reckon::sparse::Pattern;
-/// use reckon::studies::spectral::{sparse_spectrum, SpectralOptions};
+/// use reckon::jacobian::Pattern;
+/// use reckon::linalg::arnoldi::{sparse_spectrum, SpectralOptions};
 /// // diag(−1, −10, −100)
 /// let p = Pattern::from_entries(3, &[(0, 0), (1, 1), (2, 2)]).unwrap();
 /// let s = sparse_spectrum(0.0, &p, &[-1.0, -10.0, -100.0], &SpectralOptions::default()).unwrap();
@@ -412,8 +413,8 @@ pub struct SparseSpectrum {
 /// restarts [`Error::NoConvergence`] (`what`: "spectral radius" or "smallest eigenvalue").
 ///
 /// ```
-/// use reckon::sparse::Pattern;
-/// use reckon::studies::spectral::{sparse_spectrum, SpectralOptions};
+/// use reckon::jacobian::Pattern;
+/// use reckon::linalg::arnoldi::{sparse_spectrum, SpectralOptions};
 /// // the 1-D Laplacian tridiag(1, −2, 1), n = 30: λ_k = −4 sin²(kπ/62)
 /// let n = 30;
 /// let mut e = Vec::new();
@@ -436,7 +437,7 @@ pub fn sparse_spectrum(t: f64, pattern: &Pattern, values: &[f64], opts: &Spectra
 /// only when the pattern changes.
 ///
 /// ```
-/// use reckon::studies::spectral::SpectralWorkspace;
+/// use reckon::linalg::arnoldi::SpectralWorkspace;
 /// let ws = SpectralWorkspace::default(); // empty: the first call starts cold
 /// assert!(format!("{ws:?}").starts_with("SpectralWorkspace"));
 /// ```
@@ -453,8 +454,8 @@ pub struct SpectralWorkspace {
 /// symbolic analysis is kept for the same pattern. The results meet the same tolerance.
 ///
 /// ```
-/// use reckon::sparse::Pattern;
-/// use reckon::studies::spectral::{sparse_spectrum_with, SpectralOptions, SpectralWorkspace};
+/// use reckon::jacobian::Pattern;
+/// use reckon::linalg::arnoldi::{sparse_spectrum_with, SpectralOptions, SpectralWorkspace};
 /// // diag(−1, −2, …, −300) and then twice that
 /// let p = Pattern::from_entries(300, &(0..300).map(|i| (i, i)).collect::<Vec<_>>()).unwrap();
 /// let v: Vec<f64> = (0..300).map(|i| -((i + 1) as f64)).collect();

@@ -2,7 +2,7 @@
 //! state. Built by [`model!`](crate::model) from `|t, x: [S; N], p: [S; P] = [p₁, …]| body`.
 
 use crate::error::{Error, Result};
-use crate::system::{NoTimeDerivative, System, TimeDerivative};
+use crate::model::{NoTimeDerivative, System, TimeDerivative};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U1};
 use num_dual::{Derivative, DualVec64};
@@ -77,7 +77,7 @@ impl<D, M, F, G> ParamModel<D, M, F, G> {
 }
 
 impl<D, M, F, G, T, Q, Tr> ParamModel<D, M, F, G, T, Q, Tr> {
-    /// The same model with `∂f/∂t` given by `dt` (`model!` gives [`Autonomous`](crate::system::Autonomous) for `|_, …|`).
+    /// The same model with `∂f/∂t` given by `dt` (`model!` gives [`Autonomous`](crate::model::Autonomous) for `|_, …|`).
     pub fn with_time_derivative<T2>(self, dt: T2) -> ParamModel<D, M, F, G, T2, Q, Tr> {
         ParamModel {
             inputs: self.inputs,
@@ -212,13 +212,13 @@ where
         };
         self.tr
             .traceable()
-            .then(|| crate::symbolic::trace_body(&self.tr, &crate::system::model_name::<F>(), &shape))
+            .then(|| crate::symbolic::trace_body(&self.tr, &crate::model::model_name::<F>(), &shape))
     }
     /// The compiled symbolic Jacobian (from the compiled-program cache,
     /// [`crate::symbolic::cache`]: the parameters are inputs of the compiled code, so other
     /// parameter values reuse it), `None` when the body cannot be traced (the implicit
     /// methods then use the dense num-dual [`jacobian`](System::jacobian)).
-    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
+    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::jacobian::SparseJacobian + '_>> {
         if !self.tr.traceable() {
             return None;
         }
@@ -227,9 +227,9 @@ where
             m: self.inputs,
             p: &self.params,
         };
-        crate::symbolic::cached_jacobian(&self.tr, &crate::system::model_name::<F>(), &shape, &self.counters)
+        crate::symbolic::cached_jacobian(&self.tr, &crate::model::model_name::<F>(), &shape, &self.counters)
             .ok()
-            .map(|c| Box::new(c) as Box<dyn crate::sparse::SparseJacobian>)
+            .map(|c| Box::new(c) as Box<dyn crate::jacobian::SparseJacobian>)
     }
     fn inputs(&self) -> usize {
         self.inputs
@@ -249,7 +249,7 @@ where
         let pd = constants::<M>(md, &self.params);
         let r = (self.g)(t, &xd, u, &pd.as_slice()[..self.params.len()]);
         // row i of J is the first n derivative parts of f_i: column-major as write_eps writes
-        crate::system::write_eps(&r, n, n, jac.as_mut_slice());
+        crate::model::write_eps(&r, n, n, jac.as_mut_slice());
     }
     fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
         self.dt.time_derivative(t, x, u, dfdt)
@@ -326,7 +326,7 @@ where
             None => DualVec64::new(0.0, Derivative::none()),
         });
         let r = (self.g)(t, &xd, u, &pd.as_slice()[..np]);
-        crate::system::write_eps(&r, n, m, ds);
+        crate::model::write_eps(&r, n, m, ds);
     }
 }
 
@@ -415,7 +415,7 @@ where
             DualVec64::new(p[j], Derivative::derivative_generic(pw, U1, j))
         });
         let r = (self.body)(t, &xd, u, pd.as_slice());
-        crate::system::write_eps(&r, n, np, ds);
+        crate::model::write_eps(&r, n, np, ds);
         true
     }
 }

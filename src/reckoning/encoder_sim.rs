@@ -71,7 +71,7 @@ pub struct EncoderRun {
 ///
 /// ```
 /// use reckon::reckoning::encoders::DiffDrive;
-/// use reckon::reckoning::errors::{simulate, Command, EncoderErrors};
+/// use reckon::reckoning::encoder_sim::{simulate, Command, EncoderErrors};
 /// let r = DiffDrive::new(0.1, 0.5, 1000.0).unwrap();
 /// let run = simulate(&r, &EncoderErrors::default(), &[Command { v: 1.0, omega: 0.0, duration: 2.0 }], 0.01, [0.0; 3].into());
 /// assert!((run.truth.last().unwrap()[0] - 2.0).abs() < 1e-12);

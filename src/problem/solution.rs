@@ -1,38 +1,9 @@
 //! The result of an integration: times, states, dense output, statistics, events.
 
 use crate::error::{Error, Result};
+use crate::model::Stats;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
-
-/// Work counters, all counted in one place ([`Eval`](crate::system::Eval) and the driver).
-///
-/// `accepted + rejected` is the number of step attempts; `rejected` includes steps
-/// retried because Newton failed.
-///
-/// ```
-/// use reckon::{model, Options, Problem, methods::ExplicitEuler};
-/// use nalgebra::vector;
-/// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
-/// let s = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(ExplicitEuler, &Options::default().fixed(0.1)).unwrap().stats;
-/// assert_eq!((s.accepted, s.rhs_evals, s.jacobian_evals), (10, 10, 0)); // one f call per Euler step
-/// ```
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct Stats {
-    /// Calls of `f(t, x)`.
-    pub rhs_evals: u64,
-    /// Calls of the autodiff Jacobian `∂f/∂x`.
-    pub jacobian_evals: u64,
-    /// Calls of the model's exact `∂f/∂t` (Rosenbrock methods on non-autonomous models).
-    pub time_derivative_evals: u64,
-    /// LU factorisations of `I − h·J`.
-    pub lu_decompositions: u64,
-    /// Newton iterations (each costs one `f` call and one LU solve).
-    pub newton_iterations: u64,
-    /// Accepted steps.
-    pub accepted: u64,
-    /// Rejected step attempts (error too large or Newton failure).
-    pub rejected: u64,
-}
 
 /// Where the problem was found stiff (DOPRI5's test: `h·λ > 3.25` on 15 checks
 /// not separated by 6 non-stiff ones).
@@ -190,11 +161,11 @@ where
     /// headers and spare capacity are not counted).
     ///
     /// ```
-    /// use reckon::{model, methods::Dopri5, Options, Problem, Save};
+    /// use reckon::{model, methods::Rk45, Options, Problem, Save};
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
     /// let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 100.0));
-    /// let s = p.solve(Dopri5::default(), &Options::default().dense(false).save(Save::End)).unwrap();
+    /// let s = p.solve(Rk45::default(), &Options::default().dense(false).save(Save::End)).unwrap();
     /// assert_eq!(s.kept_bytes(), 2 * 8 + 2 * 16); // two times, two 2-vectors
     /// ```
     pub fn kept_bytes(&self) -> usize {
@@ -207,12 +178,12 @@ where
     /// unless [`Options::dense(true)`](crate::Options::dense) was set.
     ///
     /// ```
-    /// use reckon::{model, methods::Dopri5, Options, Problem};
+    /// use reckon::{model, methods::Rk45, Options, Problem};
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
-    /// assert!(p.solve(Dopri5::default(), &Options::default()).unwrap().dense_segments().is_empty());
-    /// let s = p.solve(Dopri5::default(), &Options::default().dense(true)).unwrap();
+    /// assert!(p.solve(Rk45::default(), &Options::default()).unwrap().dense_segments().is_empty());
+    /// let s = p.solve(Rk45::default(), &Options::default().dense(true)).unwrap();
     /// assert_eq!(s.dense_segments().len(), s.t.len() - 1);
     /// ```
     pub fn dense_segments(&self) -> &[DenseSegment<D>] {
@@ -226,14 +197,14 @@ where
     /// returns [`Error::NoDenseOutput`], which names that fix.
     ///
     /// ```
-    /// use reckon::{model, Error, Options, Problem, methods::Dopri5};
+    /// use reckon::{model, Error, Options, Problem, methods::Rk45};
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
-    /// let sol = p.solve(Dopri5::default(), &Options::default().rtol(1e-9).atol(1e-12).dense(true)).unwrap();
+    /// let sol = p.solve(Rk45::default(), &Options::default().rtol(1e-9).atol(1e-12).dense(true)).unwrap();
     /// assert!((sol.at(0.7).unwrap()[0] - (-0.7f64).exp()).abs() < 1e-8); // between steps
     /// assert!(sol.at(2.5).is_err()); // outside the span
-    /// let lean = p.solve(Dopri5::default(), &Options::default()).unwrap(); // dense off
+    /// let lean = p.solve(Rk45::default(), &Options::default()).unwrap(); // dense off
     /// let e = lean.at(0.7).unwrap_err();
     /// assert_eq!(e, Error::NoDenseOutput { t: 0.7 });
     /// assert!(e.to_string().contains("Options::dense(true)"));

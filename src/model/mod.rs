@@ -4,14 +4,23 @@
 //! Notation follows Hairer–Nørsett–Wanner: `t` time, `x` state, `u` inputs held
 //! constant over a control interval, `f` the right-hand side, `J = ∂f/∂x`.
 
-use crate::error::{Error, Quantity, Result};
-use crate::solution::Stats;
+use crate::error::Result;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector, U1};
 use num_dual::DualVec64;
 use std::marker::PhantomData;
 
-mod sparse_eval;
+mod eval;
+mod flow;
+pub mod lhs;
+pub mod lti;
+pub mod params;
+
+pub use eval::{Eval, Stats};
+pub(crate) use eval::{finite, write_eps};
+pub use flow::{DualFlow, Flow};
+pub use lti::Lti;
+pub use params::ParamModel;
 
 /// A right-hand side `x' = f(t, x, u)` with its Jacobian `J = ∂f/∂x`.
 ///
@@ -53,7 +62,7 @@ where
     /// An evaluator of `J` into its sparsity pattern, for a state of `n` components, if
     /// the model can give one (a traced [`model!`](crate::model): the compiled symbolic
     /// Jacobian). `None` (the default): the implicit methods use the dense [`jacobian`](Self::jacobian).
-    fn sparse_jacobian(&self, _n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
+    fn sparse_jacobian(&self, _n: usize) -> Option<Box<dyn crate::jacobian::SparseJacobian + '_>> {
         None
     }
     /// `Some(b)` when `J` has the block form `[[A, 0], [L, blockdiag(A, …, A)]]` with `A`
@@ -75,7 +84,7 @@ where
     /// compiled. All zero (the default) for a model that is not traced.
     ///
     /// ```
-    /// use reckon::{problems::brusselator, System};
+    /// use reckon::{studies::problems::brusselator, System};
     /// let f = brusselator(40);
     /// let _ = f.sparse_jacobian(80).unwrap();
     /// assert_eq!(f.trace_counts().records, 1);
@@ -106,7 +115,7 @@ where
     fn time_derivative(&self, t: f64, x: &OVector<f64, D>, u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
         (**self).time_derivative(t, x, u, dfdt)
     }
-    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
+    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::jacobian::SparseJacobian + '_>> {
         (**self).sparse_jacobian(n)
     }
     fn symbolic(&self, n: usize) -> Option<Result<crate::symbolic::Traced>> {
@@ -311,7 +320,7 @@ where
     }
 }
 
-impl<D: crate::sparse::colour::ColourDim, F, G, T, Tr> System<D> for ClosureModel<D, F, G, T, Tr>
+impl<D: crate::jacobian::colour::ColourDim, F, G, T, Tr> System<D> for ClosureModel<D, F, G, T, Tr>
 where
     F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
@@ -365,13 +374,13 @@ where
     /// The compiled symbolic Jacobian when the body can be traced; for a `DVector` body that
     /// cannot be (its control flow depends on the state or on a plain-f64 time), num-dual
     /// with a column colouring of the pattern detected from the body
-    /// ([`ColourDim`](crate::sparse::colour::ColourDim)).
+    /// ([`ColourDim`](crate::jacobian::colour::ColourDim)).
     ///
     /// Every call records the body on the tracing scalar and takes the compiled Jacobian of
     /// an equal recording from the compiled-program cache ([`crate::symbolic::cache`]), so a
     /// model kept or rebuilt with the same structure skips the differentiation and the
     /// compile, and one whose captured values changed is traced afresh.
-    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::sparse::SparseJacobian + '_>> {
+    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn crate::jacobian::SparseJacobian + '_>> {
         if self.tr.traceable() {
             let shape = crate::symbolic::Shape {
                 n,
@@ -434,7 +443,7 @@ where
     }
     /// `ds ← J·S + [0 | ∂f/∂p]` alone, as in [`rhs_sensitivity`](Self::rhs_sensitivity)
     /// without `f`: the one dual evaluation a scheme needs when it has `f` already (the
-    /// stages of [`Dopri5`](crate::methods::Dopri5)'s staggered sensitivities).
+    /// stages of [`Rk45`](crate::methods::Rk45)'s staggered sensitivities).
     ///
     /// ```
     /// use reckon::{model, DualSystem};
@@ -461,11 +470,11 @@ where
             )
         });
         let out = self.rhs_dual(t, &xd, u);
-        crate::system::write_eps(&out, n, m, ds);
+        crate::model::write_eps(&out, n, m, ds);
     }
 }
 
-impl<D: crate::sparse::colour::ColourDim, F, G, T, Tr> DualSystem<D> for ClosureModel<D, F, G, T, Tr>
+impl<D: crate::jacobian::colour::ColourDim, F, G, T, Tr> DualSystem<D> for ClosureModel<D, F, G, T, Tr>
 where
     F: Fn(f64, &OVector<f64, D>, &[f64]) -> OVector<f64, D>,
     G: Fn(f64, &OVector<DualVec64<D>, D>, &[f64]) -> OVector<DualVec64<D>, D>,
@@ -515,7 +524,7 @@ where
 /// for `M` held inputs (`u: &[f64]`). The body is written once and compiled twice,
 /// with `S = f64` and with `S` a num-dual number (three times with `t: S`, and three with a
 /// fixed-size parameter block: duals of `n + n_p` directions, and of `n_p` for the
-/// sensitivities to the parameters alone, [`ParamsBody`](crate::params::ParamsBody)), so it must be generic in spirit.
+/// sensitivities to the parameters alone, [`ParamsBody`](crate::model::params::ParamsBody)), so it must be generic in spirit.
 /// Float literals may stand on either side of an operator (`2.0 * x[0]`, see below);
 /// a captured `f64` variable goes on the right (`x[0] * mu`) or is lifted
 /// (`S::from(mu) * x[0]`), and so does a value that does not depend on the state
@@ -729,7 +738,7 @@ macro_rules! model {
         $crate::model!(@pfixed plain, $m, $n, $t, $x, $s, $u, $p, $np, $pv, $body)
     };
     (@ptime plain, $model:expr) => { $model };
-    (@ptime auto, $model:expr) => { $model.with_time_derivative($crate::system::Autonomous) };
+    (@ptime auto, $model:expr) => { $model.with_time_derivative($crate::model::Autonomous) };
     (@pfixed $mode:ident, $m:expr, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $p:ident, $np:expr, $pv:tt, $body:expr) => {{
         let __pv: [f64; $np] = $pv;
         $crate::model!(@ptime $mode, $crate::ParamModel::<
@@ -758,7 +767,7 @@ macro_rules! model {
                 $crate::model!(@body $mode, $t, __t, $s, $crate::num_dual::DualSVec64<{ $n + $np }>, $body)
             },
         )
-        .with_params_tangent($crate::params::ParamsBody::<$crate::nalgebra::Const<{ $np }>, _>::new(
+        .with_params_tangent($crate::model::params::ParamsBody::<$crate::nalgebra::Const<{ $np }>, _>::new(
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
                   $x: &$crate::nalgebra::SVector<$crate::num_dual::DualSVec64<{ $np }>, { $n }>,
@@ -892,9 +901,9 @@ macro_rules! model {
         )
     };
     (@time plain, $model:expr, $($rest:tt)*) => { $model };
-    (@time auto, $model:expr, $($rest:tt)*) => { $model.with_time_derivative($crate::system::Autonomous) };
+    (@time auto, $model:expr, $($rest:tt)*) => { $model.with_time_derivative($crate::model::Autonomous) };
     (@time typed, $model:expr, fixed, $n:expr, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
-        $model.with_time_derivative($crate::system::TimeDual(
+        $model.with_time_derivative($crate::model::TimeDual(
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
                   __x: &$crate::nalgebra::SVector<f64, { $n }>,
@@ -914,7 +923,7 @@ macro_rules! model {
         ))
     };
     (@time typed, $model:expr, dyn, $t:tt, $x:ident, $s:ident, $u:tt, $body:expr) => {
-        $model.with_time_derivative($crate::system::TimeDual(
+        $model.with_time_derivative($crate::model::TimeDual(
             #[allow(unused_variables, clippy::clone_on_copy)]
             move |__t: f64,
                   __x: &$crate::nalgebra::DVector<f64>,
@@ -979,212 +988,4 @@ macro_rules! model {
              `t: S` gives the body t as S and an exact ∂f/∂t; `_` marks an autonomous model)"
         )
     };
-}
-
-/// The one place where the model is called: counts every evaluation and checks
-/// every result for NaN/∞ at the time it appears.
-pub struct Eval<'a, D: Dim, S>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    sys: &'a S,
-    /// Inputs held over the current control interval: a control log's row, borrowed,
-    /// or the caller's own values.
-    pub(crate) u: std::borrow::Cow<'a, [f64]>,
-    /// Counters.
-    pub stats: Stats,
-    /// A wrong-length result from an unchecked call, reported by the driver when it
-    /// finds the NaN left in its place.
-    pub(crate) fault: Option<Error>,
-    /// The linear-algebra choice and the model's sparse Jacobian (`crate::sparse`).
-    pub(crate) sparse: sparse_eval::Slot<'a>,
-    _dim: PhantomData<D>,
-}
-
-impl<'a, D: Dim, S: System<D>> Eval<'a, D, S>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    /// The model `sys` holding the inputs `u`: owned values, or a control log's row
-    /// (borrowed).
-    pub(crate) fn new(sys: &'a S, u: impl Into<std::borrow::Cow<'a, [f64]>>) -> Self {
-        Eval {
-            sys,
-            u: u.into(),
-            stats: Stats::default(),
-            fault: None,
-            sparse: Default::default(),
-            _dim: PhantomData,
-        }
-    }
-
-    /// The model.
-    pub(crate) fn system(&self) -> &'a S {
-        self.sys
-    }
-
-    /// Hold the inputs `v` from now on (the caller's values: copied into the owned
-    /// buffer, which is reused while the count is unchanged).
-    pub(crate) fn hold(&mut self, v: &[f64]) {
-        match &mut self.u {
-            std::borrow::Cow::Owned(o) if o.len() == v.len() => o.copy_from_slice(v),
-            _ => self.u = std::borrow::Cow::Owned(v.to_vec()),
-        }
-    }
-
-    /// Hold a control log's row `v` from now on: borrowed, nothing copied (one store of
-    /// a slice per interval of a long log).
-    #[inline(always)]
-    pub(crate) fn hold_row(&mut self, v: &'a [f64]) {
-        match &mut self.u {
-            // the usual case on a log: a row replaces a row, two stores
-            std::borrow::Cow::Borrowed(r) => *r = v,
-            u => *u = std::borrow::Cow::Borrowed(v),
-        }
-    }
-
-    /// [`hold_row`](Self::hold_row) where the inputs held now are known to be a row:
-    /// the slice replaced without the test for owned inputs to free (the lean loop
-    /// over a log's rows, entered only with a row held; an owned value replaced here
-    /// would be leaked, not freed, so debug builds check).
-    #[inline(always)]
-    pub(crate) fn replace_row(&mut self, v: &'a [f64]) {
-        debug_assert!(matches!(self.u, std::borrow::Cow::Borrowed(_)));
-        std::mem::forget(std::mem::replace(&mut self.u, std::borrow::Cow::Borrowed(v)));
-    }
-
-    /// Whether the inputs held now are a borrowed row (not owned values).
-    pub(crate) fn holds_row(&self) -> bool {
-        matches!(self.u, std::borrow::Cow::Borrowed(_))
-    }
-
-    /// `dx ← f(t, x)`, counted but not checked: for explicit kernels whose step result
-    /// the driver checks (and then asks [`Method::diagnose`](crate::methods::Method::diagnose) where it broke).
-    #[inline(always)]
-    pub fn rhs_unchecked(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
-        self.stats.rhs_evals += 1;
-        self.rhs_uncounted(t, x, dx);
-    }
-
-    /// `dx ← f(t, x)` like [`rhs_unchecked`](Self::rhs_unchecked), but not counted: a
-    /// kernel that makes a known number of calls adds them to `stats.rhs_evals` at once
-    /// (one memory update per step instead of one per stage).
-    #[inline(always)]
-    pub(crate) fn rhs_uncounted(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
-        self.sys.rhs(t, x, &self.u, dx);
-        if dx.len() != x.len() {
-            self.wrong_length(t, x, dx);
-        }
-    }
-
-    /// Record a wrong-length derivative and leave NaN of the right length in its place,
-    /// so that the step fails the driver's finiteness check and reports this.
-    #[cold]
-    #[inline(never)]
-    fn wrong_length(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
-        self.fault.get_or_insert(length_error(dx.len(), x.len(), t));
-        let (r, c) = x.shape_generic();
-        *dx = OVector::from_element_generic(r, c, f64::NAN);
-    }
-
-    /// `dx ← f(t, x)`, counted and checked.
-    #[inline]
-    pub fn rhs(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) -> Result<()> {
-        self.stats.rhs_evals += 1;
-        self.sys.rhs(t, x, &self.u, dx);
-        if dx.len() != x.len() {
-            return Err(Error::invalid(
-                "model",
-                format!("f returned {} components for a state of {}", dx.len(), x.len()),
-            ));
-        }
-        finite(dx.as_slice(), t, Quantity::Derivative)
-    }
-
-    /// `jac ← ∂f/∂x (t, x)`, counted and checked.
-    pub fn jacobian(&mut self, t: f64, x: &OVector<f64, D>, jac: &mut OMatrix<f64, D, D>) -> Result<()>
-    where
-        DefaultAllocator: Allocator<D, D>,
-    {
-        self.stats.jacobian_evals += 1;
-        self.sys.jacobian(t, x, &self.u, jac);
-        if jac.nrows() != x.len() || jac.ncols() != x.len() {
-            return Err(Error::invalid(
-                "model",
-                format!("Jacobian is {}x{} for a state of {}", jac.nrows(), jac.ncols(), x.len()),
-            ));
-        }
-        finite(jac.as_slice(), t, Quantity::Jacobian).map_err(|e| self.length_error(t, x).unwrap_or(e))
-    }
-
-    /// `dfdt ← ∂f/∂t (t, x)` when the model provides it (`Ok(true)`, counted and
-    /// checked); `Ok(false)` when it does not (nothing counted, `dfdt` untouched).
-    pub fn time_derivative(&mut self, t: f64, x: &OVector<f64, D>, dfdt: &mut OVector<f64, D>) -> Result<bool> {
-        if !self.sys.time_derivative(t, x, &self.u, dfdt) {
-            return Ok(false);
-        }
-        self.stats.time_derivative_evals += 1;
-        if dfdt.len() != x.len() {
-            return Err(Error::invalid(
-                "model",
-                format!("∂f/∂t has {} components for a state of {}", dfdt.len(), x.len()),
-            ));
-        }
-        finite(dfdt.as_slice(), t, Quantity::Derivative).map(|()| true)
-    }
-
-    /// After a non-finite Jacobian: a model whose output has the wrong length says so.
-    #[cold]
-    fn length_error(&mut self, t: f64, x: &OVector<f64, D>) -> Option<Error> {
-        let mut dx = x.clone();
-        self.sys.rhs(t, x, &self.u, &mut dx);
-        (dx.len() != x.len()).then(|| length_error(dx.len(), x.len(), t))
-    }
-}
-
-/// The model's output has `got` components for a state of `n`.
-fn length_error(got: usize, n: usize, t: f64) -> Error {
-    Error::invalid(
-        "model",
-        format!(
-            "f returned {got} components for a state of {n} (at t = {})",
-            crate::error::Brief(t)
-        ),
-    )
-}
-
-/// `Ok` when every value is finite, else [`Error::NonFinite`] naming the first bad one.
-#[inline]
-pub(crate) fn finite(v: &[f64], t: f64, quantity: Quantity) -> Result<()> {
-    if v.iter().all(|a| a.is_finite()) {
-        return Ok(());
-    }
-    let component = v.iter().position(|a| !a.is_finite()).unwrap_or(0);
-    Err(Error::NonFinite { t, quantity, component })
-}
-
-/// The derivative parts of `r` (`n` duals with `m` directions) into `ds` column-major;
-/// NaN for a result of the wrong length (the driver reports it).
-pub(crate) fn write_eps<D: Dim, M: Dim>(r: &OVector<DualVec64<M>, D>, n: usize, m: usize, ds: &mut [f64])
-where
-    DefaultAllocator: Allocator<D> + Allocator<M>,
-{
-    if r.len() != n {
-        ds.fill(f64::NAN);
-        return;
-    }
-    for i in 0..n {
-        match &r[i].eps.0 {
-            Some(e) => {
-                for k in 0..m {
-                    ds[i + k * n] = e[k];
-                }
-            }
-            None => {
-                for k in 0..m {
-                    ds[i + k * n] = 0.0;
-                }
-            }
-        }
-    }
 }

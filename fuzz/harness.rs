@@ -1065,12 +1065,6 @@ where
     F: Flow<D>,
     X: FnOnce(&Problem<'_, D, S>, &Options, &SensitivityOptions),
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
-    ImplicitEuler<D>: Method<D>,
-    Rk45<D>: Method<D>,
-    Bdf<D>: Method<D>,
-    Rodas5P<D>: Method<D>,
-    Auto<D>: Method<D>,
-    ExponentialEuler<D>: Method<D>,
 {
     trace(|| format!("x0 = {:?}, span = {span:?}", x0.as_slice()));
     let n = x0.len();
@@ -1129,8 +1123,6 @@ where
     S: reckon::System<D>,
     F: Flow<D>,
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
-    ImplicitEuler<D>: Method<D>,
-    Rk45<D>: Method<D>,
 {
     match method {
         0 => drive(p, Euler, opts, plan),
@@ -1176,7 +1168,7 @@ fn capped(o: &Options, n: usize, large: usize) -> Options {
 
 /// BDF or NDF, with an order limit, a fixed order or a start history (of the wrong length
 /// now and then), and Newton settings.
-fn bdf<D>(u: &mut Unstructured, n: usize) -> Result<Bdf<D>>
+fn bdf<D>(u: &mut Unstructured, n: usize) -> Result<Bdf>
 where
     D: reckon::linalg::LuDim,
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
@@ -1242,18 +1234,13 @@ where
     trace(|| format!("sensitivities: method {method}, {so:?}"));
     match method {
         0 => probe_sens(sensitivity::solve(p, Euler, &opts, &so)),
-        1 => probe_sens(sensitivity::solve(p, ImplicitEuler::<Dyn>::default(), &opts, &so)),
-        2 => probe_sens(sensitivity::solve(
-            p,
-            ImplicitEuler::<Dyn>::new(plan.newton),
-            &opts,
-            &so,
-        )),
-        3 => probe_sens(sensitivity::solve(p, Rk45::<Dyn>::default(), &opts, &so)),
-        4 => probe_sens(sensitivity::solve(p, Bdf::<Dyn>::default(), &opts, &so)),
-        5 => probe_sens(sensitivity::solve(p, Rodas5P::<Dyn>::default(), &opts, &so)),
-        6 => probe_sens(sensitivity::solve(p, ExponentialEuler::<Dyn>::default(), &opts, &so)),
-        7 => probe_sens(sensitivity::solve(p, Auto::<Dyn>::default(), &opts, &so)),
+        1 => probe_sens(sensitivity::solve(p, ImplicitEuler::default(), &opts, &so)),
+        2 => probe_sens(sensitivity::solve(p, ImplicitEuler::new(plan.newton), &opts, &so)),
+        3 => probe_sens(sensitivity::solve(p, Rk45, &opts, &so)),
+        4 => probe_sens(sensitivity::solve(p, Bdf::default(), &opts, &so)),
+        5 => probe_sens(sensitivity::solve(p, Rodas5P::default(), &opts, &so)),
+        6 => probe_sens(sensitivity::solve(p, ExponentialEuler::default(), &opts, &so)),
+        7 => probe_sens(sensitivity::solve(p, Auto::default(), &opts, &so)),
         _ => exact_sens(p, &opts, &so),
     }
     Ok(())

@@ -3,7 +3,7 @@
 
 use super::Integrator;
 use crate::error::Result;
-use crate::methods::Method;
+use crate::methods::{Method, Stepper};
 use crate::model::System;
 use crate::problem::events::locate;
 use crate::problem::solution::{EventHit, Stiffness, horner};
@@ -25,7 +25,7 @@ where
             self.segment = Some(k);
             self.f.hold_row(c.values(k).unwrap_or_default());
         }
-        self.method.reset();
+        self.stepper.reset();
     }
 
     /// DOPRI5's test: `h·λ > 3.25` fifteen times without six non-stiff verdicts between.
@@ -54,7 +54,7 @@ where
         if self.stiff_countdown == 0 {
             self.stiff_countdown = every;
         }
-        let Some(hl) = self.method.stiffness(h, &self.x_new) else {
+        let Some(hl) = self.stepper.stiffness(h, &self.x_new) else {
             return;
         };
         if hl > 3.25 {

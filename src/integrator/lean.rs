@@ -6,7 +6,7 @@
 
 use super::Integrator;
 use crate::error::{Error, Result};
-use crate::methods::{Method, Outcome};
+use crate::methods::{Method, Outcome, Step, Stepper};
 use crate::model::System;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -108,9 +108,17 @@ where
                 return Err(self.underflow(h, failures));
             }
             attempts += 1;
-            let outcome = self
-                .method
-                .step(&mut self.f, t, &self.x, h, &mut self.x_new, &self.w, true)?;
+            let outcome = self.stepper.step(
+                &mut self.f,
+                Step {
+                    t,
+                    x: &self.x,
+                    h,
+                    x_new: &mut self.x_new,
+                    w: &self.w,
+                    adaptive: true,
+                },
+            )?;
             let err = match outcome {
                 Outcome::Retry(why) => {
                     sync!();
@@ -134,7 +142,7 @@ where
                 last_rejected = true;
                 continue;
             }
-            if self.method.crossing_test()
+            if self.crossing_test
                 && let Some(fac) = self.crossing_factor(t, h)
             {
                 rejected += 1;
@@ -153,8 +161,8 @@ where
                 (t0 + (tau + h), tau + h)
             };
             self.check_stiffness(h, t_new);
-            self.method.accept();
-            if let Some((to, reason)) = self.method.switched() {
+            self.stepper.accept();
+            if let Some((to, reason)) = self.stepper.switched() {
                 self.switches.push(super::Switch { t: t_new, to, reason });
             }
             // a copy, not a swap: x_new is overwritten by the next attempt anyway
@@ -189,7 +197,7 @@ where
             && self.until.is_none()
             && self.sub_h.is_none()
             && self.t_end.is_finite()
-            && self.method.never_retries()
+            && self.never_retries
             && self.times_bounded()
     }
 
@@ -458,8 +466,8 @@ where
                 // `arrive!` sets the count to zero after it)
                 attempts += 1 - $pending;
                 let outcome = self
-                    .method
-                    .step(&mut self.f, t, &self.$src, h, &mut self.$dst, &self.w, false);
+                    .stepper
+                    .step(&mut self.f, Step { t, x: &self.$src, h, x_new: &mut self.$dst, w: &self.w, adaptive: false });
                 let err = match outcome {
                     Ok(Outcome::Done { err }) => err,
                     // never_retries: a retry is a method's own error
@@ -483,8 +491,8 @@ where
                     return Err(self.non_finite(h));
                 }
                 accepted += 1;
-                self.method.accept();
-                if let Some((to, reason)) = self.method.switched() {
+                self.stepper.accept();
+                if let Some((to, reason)) = self.stepper.switched() {
                     self.switches.push(super::Switch { t: target, to, reason });
                 }
                 t = target;
@@ -510,7 +518,7 @@ where
                     self.segment = Some(k);
                     self.f.hold_row(c.values(k).unwrap_or_default());
                 }
-                self.method.reset();
+                self.stepper.reset();
             };
         }
         macro_rules! arrive {

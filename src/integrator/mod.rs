@@ -7,7 +7,7 @@ pub(crate) mod save;
 
 use crate::error::{Error, Result};
 use crate::methods::step_size::{Controller, Weights, initial_step};
-use crate::methods::{Failure, Method, Outcome};
+use crate::methods::{Failure, Method, Outcome, Step, Stepper};
 use crate::model::Stats;
 use crate::model::{Eval, System};
 use crate::problem::Problem;
@@ -28,13 +28,18 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 /// assert_eq!(it.t(), 1.0);
 /// assert!((it.x()[0] - 1.25f64.powi(4)).abs() < 1e-15);
 /// ```
-pub struct Integrator<'p, 'a, D: Dim, S, M>
+pub struct Integrator<'p, 'a, D: Dim, S, M: Method<D>>
 where
     DefaultAllocator: Allocator<D>,
 {
     problem: &'p Problem<'a, D, S>,
     f: Eval<'p, D, S>,
-    method: M,
+    stepper: M::Stepper,
+    /// The method's name, and whether the crossing test applies to it and it never
+    /// retries a step ([`Method`]'s answers, asked once).
+    method_name: &'static str,
+    crossing_test: bool,
+    never_retries: bool,
     w: Weights<D>,
     /// Current time as reported (a stop's own value when one was landed on).
     t: f64,
@@ -104,7 +109,7 @@ where
     // inlined so that the caller builds the (large) integrator in place, not in a
     // temporary it then copies
     #[inline]
-    pub(crate) fn new(problem: &'p Problem<'a, D, S>, mut method: M, opts: &Options) -> Result<Self> {
+    pub(crate) fn new(problem: &'p Problem<'a, D, S>, method: M, opts: &Options) -> Result<Self> {
         opts.validate()?;
         let (t0, t_end, x0) = (problem.t0, problem.t_end, &problem.x0);
         if !t0.is_finite() || t_end.is_nan() {
@@ -215,17 +220,21 @@ where
 
         let mut f = Eval::new(&problem.system, u);
         f.sparse.choice = opts.linear_solver;
-        method.init(&mut f, t0, x0)?;
-        let (adaptive, fixed_h) = match (opts.step, method.error_order()) {
+        let (method_name, error_order) = (method.name(), method.error_order());
+        let (crossing_test, never_retries) = (method.crossing_test(), method.never_retries());
+        let (controller, error_scale) = (method.controller(), method.error_scale(&w));
+        let exact = method.order() == u32::MAX;
+        let stepper = method.stepper(&mut f, t0, x0)?;
+        let (adaptive, fixed_h) = match (opts.step, error_order) {
             (StepSize::Fixed(h), _) => (false, h),
             (StepSize::Adaptive, Some(_)) => (true, f64::NAN),
-            (StepSize::Adaptive, None) if method.order() == u32::MAX => (false, opts.h_max),
+            (StepSize::Adaptive, None) if exact => (false, opts.h_max),
             (StepSize::Adaptive, None) => {
                 return Err(Error::invalid(
                     "step",
                     format!(
                         "{} has no error estimate: give a fixed step (StepSize::Fixed)",
-                        method.name()
+                        method_name
                     ),
                 ));
             }
@@ -235,7 +244,7 @@ where
             h = match opts.h0 {
                 Some(h0) => h0.min(opts.h_max),
                 None => {
-                    let f0 = match method.derivative_at_start() {
+                    let f0 = match stepper.derivative_at_start() {
                         Some(f0) => f0.clone(),
                         None => {
                             let mut f0 = x0.clone();
@@ -243,14 +252,14 @@ where
                             f0
                         }
                     };
-                    let iord = method.error_order().unwrap_or(1) + 1;
+                    let iord = error_order.unwrap_or(1) + 1;
                     let mut probe = x0.clone();
                     let mut f1 = x0.clone();
                     let h = initial_step(&w, x0, &f0, iord, opts.h_max, dir, &mut probe, |dt, y| {
                         f.rhs(t0 + dt, y, &mut f1)?;
                         Ok(f1.clone())
                     })?;
-                    h * method.error_scale(&w).max(1.0).powf(-1.0 / iord as f64)
+                    h * error_scale.max(1.0).powf(-1.0 / iord as f64)
                 }
             };
         }
@@ -284,7 +293,7 @@ where
         // solution only when asked (`Options::dense`)
         let store_dense = opts.dense;
         let dense = if keep_dense {
-            vec![x0.clone(); method.dense_len()]
+            vec![x0.clone(); stepper.dense_len()]
         } else {
             Vec::new()
         };
@@ -298,9 +307,12 @@ where
         }
         Ok(Integrator {
             problem,
-            controller: method.controller(),
+            controller,
             f,
-            method,
+            stepper,
+            method_name,
+            crossing_test,
+            never_retries,
             w,
             t: t0,
             tau: 0.0,
@@ -380,9 +392,9 @@ where
     pub(crate) fn direction(&self) -> f64 {
         self.dir
     }
-    /// The method, as the last step left it.
-    pub(crate) fn method(&self) -> &M {
-        &self.method
+    /// The method's stepper, as the last step left it.
+    pub(crate) fn stepper(&self) -> &M::Stepper {
+        &self.stepper
     }
     /// Whether the steps are adaptive (error-controlled).
     pub(crate) fn is_adaptive(&self) -> bool {
@@ -427,7 +439,7 @@ where
     pub fn set_inputs(&mut self, u: &[f64]) -> Result<()> {
         check_inputs(u, self.problem.system.inputs())?;
         self.f.hold(u);
-        self.method.reset();
+        self.stepper.reset();
         Ok(())
     }
 
@@ -561,9 +573,17 @@ where
             if self.watch.is_some() {
                 self.w.clear_uncontrolled();
             }
-            let outcome = self
-                .method
-                .step(&mut self.f, self.t, &self.x, h, &mut self.x_new, &self.w, self.adaptive)?;
+            let outcome = self.stepper.step(
+                &mut self.f,
+                Step {
+                    t: self.t,
+                    x: &self.x,
+                    h,
+                    x_new: &mut self.x_new,
+                    w: &self.w,
+                    adaptive: self.adaptive,
+                },
+            )?;
             let err = match outcome {
                 Outcome::Retry(why) => {
                     self.retry(why, h, &mut failures)?;
@@ -582,7 +602,7 @@ where
                 continue;
             }
             if self.adaptive
-                && self.method.crossing_test()
+                && self.crossing_test
                 && let Some(fac) = self.crossing_factor(self.t, h)
             {
                 self.reject_by(h, fac);
@@ -665,7 +685,7 @@ where
         if let Some(e) = self.f.fault.take() {
             return e;
         }
-        self.method.diagnose(&mut self.f, self.t, &self.x, h, &self.x_new)
+        self.stepper.diagnose(&mut self.f, self.t, &self.x, h, &self.x_new)
     }
 
     /// The error estimate `err > 1` rejects the step: shrink it.
@@ -768,7 +788,7 @@ where
     /// The factor that shrinks a step rejected with estimate `err > 1`.
     #[inline]
     fn reject_factor(&mut self, err: f64) -> f64 {
-        match self.method.step_factor(false, err) {
+        match self.stepper.step_factor(false, err) {
             Some(fac) => fac,
             None if err.is_finite() => self.controller.reject(err),
             None => self.controller.min_factor,
@@ -788,7 +808,7 @@ where
     /// plan when `h` was only shortened to land on a stop.
     #[inline]
     fn accepted_h(&mut self, h: f64, err: f64, proposal: f64, last_rejected: bool, landed: bool) -> f64 {
-        let fac = match self.method.step_factor(true, err) {
+        let fac = match self.stepper.step_factor(true, err) {
             Some(fac) => fac,
             None => self.controller.accept(err),
         };
@@ -842,13 +862,13 @@ where
         }
         let mut stopped = false;
         if self.keep_dense {
-            self.method
+            self.stepper
                 .dense(&mut self.f, self.t, h, &self.x, &self.x_new, &mut self.dense)?;
             stopped = self.check_events(h, &mut t_new)?;
         }
         self.last_step = (self.t, h, t_new);
-        self.method.accept();
-        if let Some((to, reason)) = self.method.switched() {
+        self.stepper.accept();
+        if let Some((to, reason)) = self.stepper.switched() {
             self.switches.push(Switch { t: t_new, to, reason });
         }
         std::mem::swap(&mut self.x, &mut self.x_new);
@@ -925,7 +945,7 @@ where
             stats: self.f.stats,
             events: std::mem::take(&mut self.hits),
             stiffness: self.stiffness,
-            method: self.method.name(),
+            method: self.method_name,
             switches: std::mem::take(&mut self.switches),
             dense,
         })

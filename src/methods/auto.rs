@@ -3,10 +3,12 @@
 //! by stability or when BDF's estimated cost per unit time is lower, and come back when
 //! DOPRI5's is.
 
-use super::{Bdf, Method, Outcome, Rk45};
+use super::bdf::BdfStepper;
+use super::rk45::Rk45Stepper;
+use super::{Bdf, Method, Outcome, Rk45, Step, Stepper};
 use crate::error::Result;
 use crate::linalg::LuDim;
-use crate::methods::step_size::{Controller, Weights};
+use crate::methods::step_size::Controller;
 use crate::model::{Eval, System};
 use crate::problem::solution::SwitchReason;
 use nalgebra::allocator::Allocator;
@@ -183,14 +185,23 @@ enum Mode {
 /// assert!(auto.stats.accepted * 10 < rk.stats.accepted);
 /// assert!((auto.last().1 - rk.last().1).amax() < 1e-2);
 /// ```
-pub struct Auto<D: LuDim>
+#[derive(Debug, Clone, Default)]
+pub struct Auto {
+    /// The non-stiff method.
+    pub explicit: Rk45,
+    /// The stiff method.
+    pub implicit: Bdf,
+}
+
+/// [`Auto`]'s run: both methods' steppers, the mode, and the evidence for switching.
+pub struct AutoStepper<D: LuDim>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    /// The non-stiff method.
-    pub explicit: Rk45<D>,
-    /// The stiff method.
-    pub implicit: Bdf<D>,
+    explicit: Rk45Stepper<D>,
+    implicit: BdfStepper<D>,
+    /// The two methods' names (for [`Solution::switches`](crate::Solution::switches)).
+    names: (&'static str, &'static str),
     mode: Mode,
     /// Verdicts for the other method (consecutive ones, toward DOPRI5).
     streak: u32,
@@ -218,34 +229,7 @@ where
     in_mode: u32,
 }
 
-impl<D: LuDim> Default for Auto<D>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
-    fn default() -> Self {
-        Auto {
-            explicit: Rk45::default(),
-            implicit: Bdf::default(),
-            mode: Mode::Explicit,
-            streak: 0,
-            quiet: 0,
-            verdict: None,
-            switched: None,
-            fresh: false,
-            history: History::new(),
-            tau: 0.0,
-            h: 0.0,
-            x_new: None,
-            scale: None,
-            bdf_factor: 1.0,
-            controlled: 0,
-            h_lambda: None,
-            in_mode: 0,
-        }
-    }
-}
-
-impl<D: LuDim> Auto<D>
+impl<D: LuDim> AutoStepper<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
@@ -306,20 +290,21 @@ where
     /// `None` without one.
     fn bdf_step(&self, d: &[f64; HISTORY]) -> Option<f64> {
         let len = self.history.t.len();
-        (1..=self.implicit.max_order)
+        (1..=self.implicit.method.max_order)
             .filter(|q| q + 1 < len && d[q + 1] > 0.0 && d[q + 1].is_finite())
             .map(|q| {
-                let e = super::bdf::BIAS * self.implicit.error_constant(q) * d[q + 1] / self.bdf_factor;
+                let e = super::bdf::BIAS * self.implicit.method.error_constant(q) * d[q + 1] / self.bdf_factor;
                 e.powf(-1.0 / (q as f64 + 1.0))
             })
             .reduce(f64::max)
     }
 }
 
-impl<D: LuDim> Method<D> for Auto<D>
+impl<D: LuDim> Method<D> for Auto
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    type Stepper = AutoStepper<D>;
     /// In both modes: at a loose tolerance DOPRI5 too steps Robertson's and HIRES's
     /// concentrations past zero, where the field points back, and the run then
     /// underflows (`rtol` 0.1, `tests/it/fail_safe.rs`).
@@ -335,50 +320,88 @@ where
     fn order(&self) -> u32 {
         5
     }
+    /// DOPRI5's: every run starts explicit.
     fn error_order(&self) -> Option<u32> {
-        match self.mode {
-            Mode::Explicit => self.explicit.error_order(),
-            Mode::Implicit => self.implicit.error_order(),
-        }
+        Method::<D>::error_order(&self.explicit)
     }
-    /// DOPRI5's PI controller; BDF chooses its own steps ([`Method::step_factor`]).
+    /// DOPRI5's PI controller; BDF chooses its own steps ([`Stepper::step_factor`]).
     fn controller(&self) -> Controller {
-        self.explicit.controller()
+        Method::<D>::controller(&self.explicit)
     }
-    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()> {
-        self.explicit.init(f, t0, x0)?;
-        self.implicit.init(f, t0, x0)?;
+    fn stepper<S: System<D>>(self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<AutoStepper<D>> {
+        let names = (Method::<D>::name(&self.explicit), Method::<D>::name(&self.implicit));
+        let explicit = self.explicit.stepper(f, t0, x0)?;
+        let mut implicit = self.implicit.stepper(f, t0, x0)?;
         // BDF starts afresh at its first step (order 1 from the state it is given)
-        self.implicit.reset();
-        self.mode = Mode::Explicit;
-        self.streak = 0;
-        self.quiet = 0;
-        self.tau = 0.0;
-        self.in_mode = 0;
-        self.history.clear();
-        self.history.push(0.0, x0);
-        Ok(())
+        implicit.reset();
+        let mut history = History::new();
+        history.push(0.0, x0);
+        Ok(AutoStepper {
+            explicit,
+            implicit,
+            names,
+            mode: Mode::Explicit,
+            streak: 0,
+            quiet: 0,
+            verdict: None,
+            switched: None,
+            fresh: false,
+            history,
+            tau: 0.0,
+            h: 0.0,
+            x_new: None,
+            scale: None,
+            bdf_factor: 1.0,
+            controlled: 0,
+            h_lambda: None,
+            in_mode: 0,
+        })
     }
+}
+
+impl<D: LuDim> Stepper<D> for AutoStepper<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
     fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
         self.explicit.derivative_at_start()
     }
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        w: &Weights<D>,
-        adaptive: bool,
-    ) -> Result<Outcome> {
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome> {
+        let Step {
+            t,
+            x,
+            h,
+            x_new,
+            w,
+            adaptive,
+        } = s;
         let out = match self.mode {
             Mode::Explicit => {
-                let out = self.explicit.step(f, t, x, h, x_new, w, adaptive)?;
+                let out = self.explicit.step(
+                    f,
+                    Step {
+                        t,
+                        x,
+                        h,
+                        x_new: &mut *x_new,
+                        w,
+                        adaptive,
+                    },
+                )?;
                 self.h_lambda = self.explicit.stiffness(h, x_new);
                 out
             }
-            Mode::Implicit => self.implicit.step(f, t, x, h, x_new, w, adaptive)?,
+            Mode::Implicit => self.implicit.step(
+                f,
+                Step {
+                    t,
+                    x,
+                    h,
+                    x_new: &mut *x_new,
+                    w,
+                    adaptive,
+                },
+            )?,
         };
         self.h = h;
         self.bdf_factor = self.implicit.factor(w);
@@ -429,11 +452,11 @@ where
             match to {
                 Mode::Implicit => {
                     self.implicit.reset();
-                    self.switched = Some((self.implicit.name(), reason));
+                    self.switched = Some((self.names.1, reason));
                 }
                 Mode::Explicit => {
                     self.explicit.reset();
-                    self.switched = Some((self.explicit.name(), reason));
+                    self.switched = Some((self.names.0, reason));
                 }
             }
         }
@@ -449,7 +472,7 @@ where
         self.in_mode = 0;
     }
     fn dense_len(&self) -> usize {
-        Method::<D>::dense_len(&self.explicit).max(Method::<D>::dense_len(&self.implicit))
+        self.explicit.dense_len().max(self.implicit.dense_len())
     }
     fn dense<S: System<D>>(
         &mut self,
@@ -461,8 +484,8 @@ where
         c: &mut [OVector<f64, D>],
     ) -> Result<()> {
         let n = match self.mode {
-            Mode::Explicit => Method::<D>::dense_len(&self.explicit),
-            Mode::Implicit => Method::<D>::dense_len(&self.implicit),
+            Mode::Explicit => self.explicit.dense_len(),
+            Mode::Implicit => self.implicit.dense_len(),
         };
         let (used, rest) = c.split_at_mut(n);
         for v in rest {

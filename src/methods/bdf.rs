@@ -4,7 +4,7 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::newton::{self, Goal, Newton};
-use super::{Method, Outcome};
+use super::{Method, Outcome, Step, Stepper};
 use crate::error::Result;
 use crate::linalg::LuDim;
 use crate::methods::step_size::Weights;
@@ -138,10 +138,8 @@ impl Coefficients {
 /// assert!((y.sum() - 1.0).abs() < 1e-12); // the linear invariant
 /// assert!(sol.stats.accepted < 400);
 /// ```
-pub struct Bdf<D: LuDim>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
+#[derive(Debug, Clone)]
+pub struct Bdf {
     /// Newton settings (`max_iters` defaults to scipy's 4 here; `tol: None` is scipy's
     /// rule floored at [`BDF_TOL_FLOOR`](super::newton::BDF_TOL_FLOOR)).
     pub newton: super::NewtonOptions,
@@ -150,15 +148,18 @@ where
     coef: Coefficients,
     ndf: bool,
     fixed_order: Option<usize>,
-    start_history: Option<Vec<OVector<f64, D>>>,
-    st: Option<State<D>>,
+    /// Past values `x(t₀ − h), x(t₀ − 2h), …` ([`history`](Self::history)), each as
+    /// its components.
+    start_history: Option<Vec<Vec<f64>>>,
 }
 
-/// Everything carried from step to step.
-struct State<D: LuDim>
+/// [`Bdf`]'s run: everything carried from step to step.
+pub struct BdfStepper<D: LuDim>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    /// The settings (without the start history, used up).
+    pub(crate) method: Bdf,
     newton: Newton<D>,
     /// `D[j] = ∇ʲ y_n` on the step `h`, `j = 0..=MAX_ORDER + 2`.
     diffs: Vec<OVector<f64, D>>,
@@ -186,10 +187,7 @@ where
     safety: f64,
 }
 
-impl<D: LuDim> Default for Bdf<D>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
+impl Default for Bdf {
     fn default() -> Self {
         Bdf {
             newton: super::NewtonOptions {
@@ -201,20 +199,19 @@ where
             ndf: true,
             fixed_order: None,
             start_history: None,
-            st: None,
         }
     }
 }
 
-impl<D: LuDim> Bdf<D>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
+impl Bdf {
     /// The factor of tolerance proportionality below `rtol` 1e-6 (1 above):
     /// `(r/1e-6)^{1/p}` for the smallest positive `rtol` `r` and the highest order `p`,
     /// but never so small that `r·factor` falls below `min(r, 1e-14)`. See the type's
     /// documentation, "Tolerance proportionality".
-    pub(crate) fn factor(&self, w: &Weights<D>) -> f64 {
+    pub(crate) fn factor<D: nalgebra::Dim>(&self, w: &Weights<D>) -> f64
+    where
+        DefaultAllocator: Allocator<D>,
+    {
         const PIVOT: f64 = 1e-6;
         let p = self.fixed_order.unwrap_or(self.max_order).max(1) as f64;
         let r = newton::min_positive_rtol(w);
@@ -255,18 +252,19 @@ where
     /// step's `h` (a fixed-step order study started from exact values): the run begins
     /// at order `k` = the number of values given (at most 5). A value whose length is not
     /// the state's is [`Error::InvalidInput`](crate::Error::InvalidInput) when the solve starts.
-    pub fn history(mut self, past: Vec<OVector<f64, D>>) -> Self {
-        self.start_history = Some(past);
+    pub fn history<D: nalgebra::Dim>(mut self, past: Vec<OVector<f64, D>>) -> Self
+    where
+        DefaultAllocator: Allocator<D>,
+    {
+        self.start_history = Some(past.iter().map(|v| v.as_slice().to_vec()).collect());
         self
     }
-    /// Current order (after the last accepted step).
-    pub fn current_order(&self) -> usize {
-        self.st.as_ref().map_or(1, |s| s.order)
-    }
-    /// `‖J‖∞` of Newton's Jacobian (a bound on `|λ|` for every eigenvalue), if one is
-    /// held for the current interval.
-    pub fn jacobian_norm(&self) -> Option<f64> {
-        self.st.as_ref().and_then(|s| s.newton.jacobian_norm())
+    /// The order of the first step: that of the start history, else 1.
+    fn start_order(&self) -> usize {
+        self.start_history
+            .as_ref()
+            .filter(|p| !p.is_empty())
+            .map_or(1, |p| p.len().min(MAX_ORDER))
     }
     /// Whether this is the NDF variant.
     pub fn is_ndf(&self) -> bool {
@@ -300,7 +298,7 @@ fn compute_r(order: usize, factor: f64) -> [[f64; MAX_ORDER + 1]; MAX_ORDER + 1]
     r
 }
 
-impl<D: LuDim> State<D>
+impl<D: LuDim> BdfStepper<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
@@ -328,6 +326,20 @@ where
         self.equal_steps = 0;
     }
 
+    /// Current order (after the last accepted step).
+    pub fn current_order(&self) -> usize {
+        self.order
+    }
+    /// `‖J‖∞` of Newton's Jacobian (a bound on `|λ|` for every eigenvalue), if one is
+    /// held for the current interval.
+    pub fn jacobian_norm(&self) -> Option<f64> {
+        self.newton.jacobian_norm()
+    }
+    /// [`Bdf::factor`] of the settings.
+    pub(crate) fn factor(&self, w: &Weights<D>) -> f64 {
+        self.method.factor(w)
+    }
+
     /// Weighted RMS of `c·v` in the scale of the accepted state.
     fn norm(&self, c: f64, v: &OVector<f64, D>) -> f64 {
         let n = self.controlled.min(v.len());
@@ -336,10 +348,11 @@ where
     }
 }
 
-impl<D: LuDim> Method<D> for Bdf<D>
+impl<D: LuDim> Method<D> for Bdf
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    type Stepper = BdfStepper<D>;
     fn tightens_loose_tolerances(&self) -> bool {
         true
     }
@@ -356,9 +369,9 @@ where
         self.fixed_order.unwrap_or(self.max_order) as u32
     }
     fn error_order(&self) -> Option<u32> {
-        Some(self.current_order() as u32)
+        Some(self.start_order() as u32)
     }
-    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()> {
+    fn stepper<S: System<D>>(mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<BdfStepper<D>> {
         let mut f0 = x0.clone();
         f.rhs(t0, x0, &mut f0)?;
         let zero = x0.map(|_| 0.0);
@@ -366,7 +379,7 @@ where
         diffs[0].copy_from(x0);
         let mut restart = true;
         let mut order = 1;
-        if let Some(past) = self.start_history.as_ref().filter(|p| !p.is_empty()) {
+        if let Some(past) = self.start_history.take().filter(|p| !p.is_empty()) {
             // a dynamic state may be handed past values of another length (the fuzz target
             // `solve` found the subtraction below panicking on one)
             if let Some((j, v)) = past.iter().enumerate().find(|(_, v)| v.len() != x0.len()) {
@@ -377,7 +390,14 @@ where
             }
             // values y_n, y_{n−1}, …, y_{n−k} → backward differences ∇ʲ y_n
             let k = past.len().min(MAX_ORDER);
-            let mut vals: Vec<OVector<f64, D>> = std::iter::once(x0.clone()).chain(past[..k].iter().cloned()).collect();
+            let (r, _) = x0.shape_generic();
+            let mut vals: Vec<OVector<f64, D>> = std::iter::once(x0.clone())
+                .chain(
+                    past[..k]
+                        .iter()
+                        .map(|v| OVector::from_iterator_generic(r, nalgebra::U1, v.iter().copied())),
+                )
+                .collect();
             for (j, diff) in diffs.iter_mut().enumerate().take(k + 1) {
                 diff.copy_from(&vals[0]);
                 for i in 0..k - j {
@@ -388,7 +408,8 @@ where
             order = k;
             restart = false;
         }
-        self.st = Some(State {
+        Ok(BdfStepper {
+            method: self,
             newton: Newton::new(f, x0)?,
             tmp: vec![zero.clone(); MAX_ORDER + 1],
             diffs,
@@ -405,31 +426,33 @@ where
             scale: zero.map(|_| 1.0),
             controlled: zero.len(),
             safety: 1.0,
-        });
-        Ok(())
+        })
     }
+}
+
+impl<D: LuDim> Stepper<D> for BdfStepper<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
     fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
-        self.st.as_ref().map(|s| &s.f0)
+        Some(&self.f0)
     }
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        w: &Weights<D>,
-        adaptive: bool,
-    ) -> Result<Outcome> {
-        let coef = self.coef;
-        let factor = self.factor(w);
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome> {
+        let Step {
+            t,
+            x,
+            h,
+            x_new,
+            w,
+            adaptive,
+        } = s;
+        let coef = self.method.coef;
+        let factor = self.method.factor(w);
         let goal = Goal {
-            tol: self.newton.tol.unwrap_or_else(|| newton::bdf_tol(w, factor)),
-            max_iters: self.newton.max_iters,
+            tol: self.method.newton.tol.unwrap_or_else(|| newton::bdf_tol(w, factor)),
+            max_iters: self.method.newton.max_iters,
         };
-        let Some(s) = self.st.as_mut() else {
-            return Err(crate::Error::invalid("method", "Bdf::step called before init"));
-        };
+        let s = self;
         if s.restart {
             // the first step of an interval: order 1 from (x, f(t, x))
             if !s.f0_valid {
@@ -497,7 +520,8 @@ where
         Ok(Outcome::Done { err })
     }
     fn accept(&mut self) {
-        let Some(s) = self.st.as_mut() else { return };
+        let fixed_order = self.method.fixed_order;
+        let s = self;
         let k = s.order;
         // ∇^{k+2} y_{n+1} = d − ∇^{k+1} y_n, ∇^{k+1} y_{n+1} = d, then ∇ʲ y_{n+1} = ∇ʲ y_n + ∇^{j+1} y_{n+1}
         // (one pass over the differences, as in the predictor)
@@ -513,7 +537,7 @@ where
             }
         }
         s.equal_steps += 1;
-        if let Some(target) = self.fixed_order {
+        if let Some(target) = fixed_order {
             // start-up of a fixed-order run: rise one order per step until k
             if s.order < target {
                 s.order += 1;
@@ -522,10 +546,10 @@ where
         }
     }
     fn step_factor(&mut self, accepted: bool, err: f64) -> Option<f64> {
-        let fixed = self.fixed_order.is_some();
-        let max_order = self.max_order;
-        let coef = self.coef;
-        let s = self.st.as_mut()?;
+        let fixed = self.method.fixed_order.is_some();
+        let max_order = self.method.max_order;
+        let coef = self.method.coef;
+        let s = self;
         let k = s.order;
         // the step order q allows for an estimate e: aim at e = 1/BIAS
         let safety = s.safety;
@@ -569,12 +593,10 @@ where
         Some(best.1.min(MAX_FACTOR))
     }
     fn reset(&mut self) {
-        if let Some(s) = self.st.as_mut() {
-            s.newton.invalidate();
-            s.restart = true;
-            s.f0_valid = false;
-            s.h = f64::NAN;
-        }
+        self.newton.invalidate();
+        self.restart = true;
+        self.f0_valid = false;
+        self.h = f64::NAN;
     }
     fn dense_len(&self) -> usize {
         MAX_ORDER + 1
@@ -590,9 +612,7 @@ where
         x_new: &OVector<f64, D>,
         c: &mut [OVector<f64, D>],
     ) -> Result<()> {
-        let Some(s) = self.st.as_mut() else {
-            return Err(crate::Error::invalid("method", "Bdf::dense called before init"));
-        };
+        let s = self;
         let k = s.order;
         // the differences of y_{n+1}, as accept() will make them, into tmp[0..=k]
         // (tmp has k+1 ≤ 6 slots: ∇^{k+1} is not needed for the degree-k polynomial)

@@ -1,8 +1,7 @@
 //! Explicit (forward) Euler, the first-order one-stage Runge–Kutta method.
 
-use super::{Method, Outcome};
+use super::{Method, Outcome, Step, Stepper};
 use crate::error::Result;
-use crate::methods::step_size::Weights;
 use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -25,6 +24,7 @@ impl<D: Dim> Method<D> for Euler
 where
     DefaultAllocator: Allocator<D>,
 {
+    type Stepper = Euler;
     fn name(&self) -> &'static str {
         "euler"
     }
@@ -37,20 +37,19 @@ where
     fn never_retries(&self) -> bool {
         true
     }
-    fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, _x0: &OVector<f64, D>) -> Result<()> {
-        Ok(())
+    fn stepper<S: System<D>>(self, _f: &mut Eval<'_, D, S>, _t0: f64, _x0: &OVector<f64, D>) -> Result<Self> {
+        Ok(self)
     }
+}
+
+/// Explicit Euler carries nothing from step to step: it is its own stepper.
+impl<D: Dim> Stepper<D> for Euler
+where
+    DefaultAllocator: Allocator<D>,
+{
     #[inline]
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        _w: &Weights<D>,
-        _adaptive: bool,
-    ) -> Result<Outcome> {
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome> {
+        let Step { t, x, h, x_new, .. } = s;
         // x_new doubles as the buffer for k = f(t, x)
         f.rhs_unchecked(t, x, x_new);
         for i in 0..x.len() {

@@ -1,9 +1,8 @@
 //! Exact flow maps: for models whose flow over a step with held inputs is known in
 //! closed form, `x(t + h) = φ_h(t, x, u)` is the step itself.
 
-use super::{Method, Outcome};
+use super::{Method, Outcome, Step, Stepper};
 use crate::error::Result;
-use crate::methods::step_size::Weights;
 use crate::model::{Eval, Flow, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -42,6 +41,7 @@ impl<D: Dim, F: Flow<D>> Method<D> for Exact<F>
 where
     DefaultAllocator: Allocator<D>,
 {
+    type Stepper = Self;
     fn name(&self) -> &'static str {
         "exact"
     }
@@ -54,20 +54,19 @@ where
     fn never_retries(&self) -> bool {
         true
     }
-    fn init<S: System<D>>(&mut self, _f: &mut Eval<'_, D, S>, _t0: f64, _x0: &OVector<f64, D>) -> Result<()> {
-        Ok(())
+    fn stepper<S: System<D>>(self, _f: &mut Eval<'_, D, S>, _t0: f64, _x0: &OVector<f64, D>) -> Result<Self> {
+        Ok(self)
     }
+}
+
+/// A flow carries nothing from step to step: [`Exact`] is its own stepper.
+impl<D: Dim, F: Flow<D>> Stepper<D> for Exact<F>
+where
+    DefaultAllocator: Allocator<D>,
+{
     #[inline(always)]
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        _w: &Weights<D>,
-        _adaptive: bool,
-    ) -> Result<Outcome> {
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome> {
+        let Step { t, x, h, x_new, .. } = s;
         self.flow.flow(t, x, &f.u, h, x_new);
         if x_new.len() != x.len() {
             let n = x_new.len();

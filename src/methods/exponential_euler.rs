@@ -1,10 +1,9 @@
 //! The exponential Rosenbrock–Euler method (Hochbruck, Ostermann & Schweitzer 2009):
 //! the exact flow of the model linearised at the start of each step.
 
-use super::{Method, Outcome};
+use super::{Method, Outcome, Step, Stepper};
 use crate::error::Result;
 use crate::linalg::expm::phi_combination;
-use crate::methods::step_size::Weights;
 use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DefaultAllocator, Dim, OMatrix, OVector};
@@ -45,16 +44,12 @@ use nalgebra::{DMatrix, DefaultAllocator, Dim, OMatrix, OVector};
 /// let exact = 0.02 + 0.98 * (-50.0f64).exp();
 /// assert!((sol.last().1[0] - exact).abs() < 1e-15);
 /// ```
-#[derive(Debug, Clone)]
-pub struct ExponentialEuler<D: Dim>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
-    work: Option<Work<D>>,
-}
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ExponentialEuler;
 
+/// [`ExponentialEuler`]'s run: the linearisation and the end of the step just attempted.
 #[derive(Debug, Clone)]
-struct Work<D: Dim>
+pub struct ExponentialEulerStepper<D: Dim>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
@@ -75,26 +70,7 @@ where
     x_new: OVector<f64, D>,
 }
 
-impl<D: Dim> Default for ExponentialEuler<D>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl<D: Dim> ExponentialEuler<D>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
-    /// The method (it has no settings).
-    pub fn new() -> Self {
-        ExponentialEuler { work: None }
-    }
-}
-
-impl<D: Dim> Work<D>
+impl<D: Dim> ExponentialEulerStepper<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
@@ -129,10 +105,11 @@ where
     }
 }
 
-impl<D: Dim> Method<D> for ExponentialEuler<D>
+impl<D: Dim> Method<D> for ExponentialEuler
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    type Stepper = ExponentialEulerStepper<D>;
     fn name(&self) -> &'static str {
         "exponential-euler"
     }
@@ -142,11 +119,19 @@ where
     fn error_order(&self) -> Option<u32> {
         Some(2)
     }
-    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()> {
+    fn never_retries(&self) -> bool {
+        true
+    }
+    fn stepper<S: System<D>>(
+        self,
+        f: &mut Eval<'_, D, S>,
+        t0: f64,
+        x0: &OVector<f64, D>,
+    ) -> Result<ExponentialEulerStepper<D>> {
         let (r, _) = x0.shape_generic();
         let mut fx = x0.clone();
         f.rhs(t0, x0, &mut fx)?;
-        self.work = Some(Work {
+        Ok(ExponentialEulerStepper {
             t_at: t0,
             x_at: x0.clone(),
             fx,
@@ -157,31 +142,27 @@ where
             f_new_valid: false,
             t_new: t0,
             x_new: x0.clone(),
-        });
-        Ok(())
+        })
     }
+}
+
+impl<D: Dim> Stepper<D> for ExponentialEulerStepper<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
     fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
-        self.work.as_ref().map(|w| &w.fx)
+        Some(&self.fx)
     }
-    fn never_retries(&self) -> bool {
-        true
-    }
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        w: &Weights<D>,
-        adaptive: bool,
-    ) -> Result<Outcome> {
-        let Some(s) = self.work.as_mut() else {
-            return Err(crate::Error::invalid(
-                "method",
-                "ExponentialEuler::step called before init",
-            ));
-        };
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome> {
+        let Step {
+            t,
+            x,
+            h,
+            x_new,
+            w,
+            adaptive,
+        } = s;
+        let s = self;
         s.linearise(f, t, x)?;
         let n = x.len();
         let hj = s.h_jac(h);
@@ -225,24 +206,20 @@ where
         })
     }
     fn accept(&mut self) {
-        if let Some(s) = self.work.as_mut() {
-            // f(t₁, x₁) of the estimate is the next step's f₀ (FSAL); J is not
-            if s.f_new_valid {
-                std::mem::swap(&mut s.fx, &mut s.f_new);
-                s.t_at = s.t_new;
-                s.x_at.copy_from(&s.x_new);
-                s.linearised = false;
-                s.f_new_valid = false;
-            }
+        // f(t₁, x₁) of the estimate is the next step's f₀ (FSAL); J is not
+        if self.f_new_valid {
+            std::mem::swap(&mut self.fx, &mut self.f_new);
+            self.t_at = self.t_new;
+            self.x_at.copy_from(&self.x_new);
+            self.linearised = false;
+            self.f_new_valid = false;
         }
     }
     fn reset(&mut self) {
         // the inputs jumped: f, J and f_t belong to the old interval
-        if let Some(s) = self.work.as_mut() {
-            s.t_at = f64::NAN;
-            s.linearised = false;
-            s.f_new_valid = false;
-        }
+        self.t_at = f64::NAN;
+        self.linearised = false;
+        self.f_new_valid = false;
     }
     fn dense_len(&self) -> usize {
         4
@@ -258,13 +235,15 @@ where
         c: &mut [OVector<f64, D>],
     ) -> Result<()> {
         let (c01, c23) = c.split_at_mut(2);
-        match self.work.as_ref() {
-            Some(s) if s.t_at == t && s.x_at == *x => c01[1].copy_from(&s.fx),
-            _ => f.rhs(t, x, &mut c01[1])?,
+        if self.t_at == t && self.x_at == *x {
+            c01[1].copy_from(&self.fx);
+        } else {
+            f.rhs(t, x, &mut c01[1])?;
         }
-        match self.work.as_ref() {
-            Some(s) if s.f_new_valid && s.t_new == t + h && s.x_new == *x_new => c23[1].copy_from(&s.f_new),
-            _ => f.rhs(t + h, x_new, &mut c23[1])?,
+        if self.f_new_valid && self.t_new == t + h && self.x_new == *x_new {
+            c23[1].copy_from(&self.f_new);
+        } else {
+            f.rhs(t + h, x_new, &mut c23[1])?;
         }
         super::dense::cubic_hermite(h, x, x_new, c);
         Ok(())

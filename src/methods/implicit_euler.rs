@@ -1,7 +1,7 @@
 //! Implicit (backward) Euler solved by simplified Newton with an exact Jacobian.
 
 use super::newton::{self, Goal, Newton};
-use super::{Method, Outcome};
+use super::{Method, Outcome, Step, Stepper};
 use crate::error::Result;
 use crate::linalg::LuDim;
 use crate::methods::step_size::{Controller, Weights};
@@ -71,22 +71,21 @@ impl Default for NewtonOptions {
 ///     .unwrap();
 /// assert!((sol.last().1[0] - 1.0 / 1.1).abs() < 1e-12); // x₁ = x₀/(1 + h)
 /// ```
-pub struct ImplicitEuler<D: LuDim>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImplicitEuler {
     /// Newton settings.
     pub newton: NewtonOptions,
     /// Hold each step's local error to `tol·min(1, rtol)` (the default, `true`) so that
     /// the global error follows the tolerance, or to `tol` (`false`, per-step control).
     pub proportional: bool,
-    solver: Option<Work<D>>,
 }
 
-struct Work<D: LuDim>
+/// [`ImplicitEuler`]'s run: the Newton solver and its vectors, the last step's slope.
+pub struct ImplicitEulerStepper<D: LuDim>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    method: ImplicitEuler,
     newton: Newton<D>,
     y_p: OVector<f64, D>,
     psi: OVector<f64, D>,
@@ -94,29 +93,22 @@ where
     fx: OVector<f64, D>,
     /// `x₀ − x₋₁` and `h₋₁` of the last accepted step, when it is in this interval.
     last: Option<(OVector<f64, D>, f64)>,
-    /// The step just attempted, `x₁ − x₀` and `h`, kept on [`accept`](Method::accept).
+    /// The step just attempted, `x₁ − x₀` and `h`, kept on [`accept`](Stepper::accept).
     pending: (OVector<f64, D>, f64),
 }
 
-impl<D: LuDim> Default for ImplicitEuler<D>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
+impl Default for ImplicitEuler {
     fn default() -> Self {
         Self::new(NewtonOptions::default())
     }
 }
 
-impl<D: LuDim> ImplicitEuler<D>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
+impl ImplicitEuler {
     /// Implicit Euler with the given Newton settings.
     pub fn new(newton: NewtonOptions) -> Self {
         ImplicitEuler {
             newton,
             proportional: true,
-            solver: None,
         }
     }
 
@@ -133,7 +125,7 @@ where
     /// let exact = |t: f64| 0.5 * (t.sin() - t.cos()) + 1.5 * (-t).exp();
     /// let o = Options::default().rtol(1e-4).atol(1e-4);
     /// let p = Problem::new(&f, vector![1.0], (0.0, 5.0));
-    /// let err = |m: ImplicitEuler<_>| (p.solve(m, &o).unwrap().last().1[0] - exact(5.0)).abs();
+    /// let err = |m: ImplicitEuler| (p.solve(m, &o).unwrap().last().1[0] - exact(5.0)).abs();
     /// assert!(err(ImplicitEuler::default()) < 1e-4);
     /// assert!(err(ImplicitEuler::default().proportional(false)) > 1e-3);
     /// ```
@@ -144,15 +136,19 @@ where
 
     /// The factor the local error is held below the tolerance by (1 without
     /// proportionality).
-    fn factor(&self, w: &Weights<D>) -> f64 {
+    fn factor<D: nalgebra::Dim>(&self, w: &Weights<D>) -> f64
+    where
+        DefaultAllocator: Allocator<D>,
+    {
         if self.proportional { proportional(w) } else { 1.0 }
     }
 }
 
-impl<D: LuDim> Method<D> for ImplicitEuler<D>
+impl<D: LuDim> Method<D> for ImplicitEuler
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
+    type Stepper = ImplicitEulerStepper<D>;
     /// With [`proportional`](Self::proportional) only: `proportional(false)` is the
     /// classical per-step control at the tolerance as given (what the stiffness study
     /// compares with RK45's step at the same tolerance).
@@ -179,8 +175,14 @@ where
     fn controller(&self) -> Controller {
         Controller::new(1, 0.0).with_hold(1.0, 1.2)
     }
-    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, _t0: f64, x0: &OVector<f64, D>) -> Result<()> {
-        self.solver = Some(Work {
+    fn stepper<S: System<D>>(
+        self,
+        f: &mut Eval<'_, D, S>,
+        _t0: f64,
+        x0: &OVector<f64, D>,
+    ) -> Result<ImplicitEulerStepper<D>> {
+        Ok(ImplicitEulerStepper {
+            method: self,
             newton: Newton::new(f, x0)?,
             y_p: x0.clone(),
             psi: x0.clone(),
@@ -188,26 +190,26 @@ where
             fx: x0.clone(),
             last: None,
             pending: (x0.clone(), 0.0),
-        });
-        Ok(())
+        })
     }
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        w: &Weights<D>,
-        adaptive: bool,
-    ) -> Result<Outcome> {
-        let factor = self.factor(w);
-        let Some(s) = self.solver.as_mut() else {
-            return Err(crate::Error::invalid(
-                "method",
-                "ImplicitEuler::step called before init",
-            ));
-        };
+}
+
+impl<D: LuDim> Stepper<D> for ImplicitEulerStepper<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome> {
+        let Step {
+            t,
+            x,
+            h,
+            x_new,
+            w,
+            adaptive,
+        } = s;
+        let factor = self.method.factor(w);
+        let newton_options = self.method.newton;
+        let s = self;
         s.newton.ensure_jacobian(f, t, x)?;
         // predictor: the last step's slope carried on; ψ = y_p − x₀ makes the Newton
         // equation c·f(t₁, y_p + d) − ψ − d = 0 the implicit Euler equation with c = h
@@ -221,12 +223,12 @@ where
         // below what rounding lets it see (scipy's floor 10ε/rtol); fixed steps keep
         // scipy's rule (the step, not the tolerance, sets their accuracy)
         let goal = Goal {
-            tol: self.newton.tol.unwrap_or_else(|| {
+            tol: newton_options.tol.unwrap_or_else(|| {
                 let floor = 10.0 * f64::EPSILON / newton::min_rtol(w);
                 let factor = if adaptive { factor } else { 1.0 };
                 (newton::default_tol(w) * factor).max(floor)
             }),
-            max_iters: self.newton.max_iters,
+            max_iters: newton_options.max_iters,
         };
         if let Some(why) = s.newton.solve(f, t + h, &s.y_p, h, &s.psi, x_new, &mut s.d, w, &goal)? {
             return Ok(Outcome::Retry(why));
@@ -247,22 +249,18 @@ where
         })
     }
     fn accept(&mut self) {
-        if let Some(s) = self.solver.as_mut() {
-            match s.last.as_mut() {
-                Some(last) => {
-                    last.0.copy_from(&s.pending.0);
-                    last.1 = s.pending.1;
-                }
-                None => s.last = Some(s.pending.clone()),
+        match self.last.as_mut() {
+            Some(last) => {
+                last.0.copy_from(&self.pending.0);
+                last.1 = self.pending.1;
             }
+            None => self.last = Some(self.pending.clone()),
         }
     }
     fn reset(&mut self) {
         // the inputs jumped: the Jacobian and the slope belong to the old interval
-        if let Some(s) = self.solver.as_mut() {
-            s.newton.invalidate();
-            s.last = None;
-        }
+        self.newton.invalidate();
+        self.last = None;
     }
 }
 

@@ -1,6 +1,12 @@
-//! One file per method. A method takes one step from `(t, x)` with step `h`; it never
-//! loops over time. The [`Integrator`](crate::Integrator) drives every method
-//! through this trait and never asks which one it holds.
+//! One file per method. A method value is configuration ([`Method`]: its name, orders
+//! and settings); the [`Integrator`](crate::Integrator) asks it once for a [`Stepper`],
+//! the work space of one run, and then drives every stepper through [`Stepper::step`]
+//! with one [`Step`] at a time, never asking which method it holds. A stepper takes one
+//! step from `(t, x)` with step `h`; it never loops over time.
+//!
+//! Shared by the methods: the error norm and step-size controller ([`step_size`]),
+//! Newton's iteration ([`newton`]) and its matrix `I − c·J`, and cubic Hermite dense
+//! output.
 
 use crate::error::Result;
 use crate::methods::step_size::{Controller, Weights};
@@ -66,12 +72,45 @@ pub enum Failure {
     },
 }
 
-/// A one-step method: tableau or Newton solve or exact flow, plus its dense output.
+/// One step attempt: from `(t, x)` with step `h` into `x_new`; with `adaptive`, the
+/// error estimate in the norm of `w` (Hairer's notation, as in every method file).
+pub struct Step<'s, D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// Time at the start of the step.
+    pub t: f64,
+    /// State at `t`.
+    pub x: &'s OVector<f64, D>,
+    /// Step size (negative when integrating backward).
+    pub h: f64,
+    /// Receives the state at `t + h`.
+    pub x_new: &'s mut OVector<f64, D>,
+    /// Tolerances: the norm of the error estimate.
+    pub w: &'s Weights<D>,
+    /// Whether to estimate the error (off on fixed steps).
+    pub adaptive: bool,
+}
+
+/// A method as configuration: what it is (name, orders, the controller that suits it)
+/// and how to build its [`Stepper`] for a state like `x0`. A method value holds only
+/// settings; the work space lives in the stepper it builds (OrdinaryDiffEq's algorithm
+/// and cache), so no step can run before its work space exists.
+///
+/// ```
+/// use reckon::methods::{Method, Rk45};
+/// use nalgebra::U2;
+/// let m = Rk45::default();
+/// assert_eq!(<Rk45 as Method<U2>>::name(&m), "rk45");
+/// assert_eq!((<Rk45 as Method<U2>>::order(&m), <Rk45 as Method<U2>>::error_order(&m)), (5, Some(4)));
+/// ```
 pub trait Method<D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
-    /// Name used in tables and errors.
+    /// The work space and carried state of a run.
+    type Stepper: Stepper<D>;
+    /// Name used in tables and errors (the command's name for the method).
     fn name(&self) -> &'static str;
     /// Classical order `p` (global error `O(hᵖ)`); `u32::MAX` for an exact flow.
     fn order(&self) -> u32;
@@ -80,47 +119,65 @@ where
     /// How many times the tolerance-scaled norm this method's `err` reads (≥ 1): a method
     /// that holds its local error tighter than the tolerance (implicit Euler's tolerance
     /// proportionality) says so, and the first step is sized for it, `h₀·scale^(−1/(q+1))`.
-    fn error_scale(&self, _w: &crate::methods::step_size::Weights<D>) -> f64 {
+    fn error_scale(&self, _w: &Weights<D>) -> f64 {
         1.0
     }
     /// The step-size controller that suits the estimate.
     fn controller(&self) -> Controller {
         Controller::new(self.error_order().unwrap_or(1), 0.0)
     }
-    /// Allocate work space for `x0`'s dimension and evaluate what the first step needs.
-    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()>;
-    /// `f(t0, x0)` if `init` (or the last step, FSAL) already has it.
-    fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
-        None
-    }
-    /// Attempt one step of size `h` from `(t, x)` into `x_new`; with `adaptive` also
-    /// estimate the error in the norm of `w`.
-    #[allow(clippy::too_many_arguments)]
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        w: &Weights<D>,
-        adaptive: bool,
-    ) -> Result<Outcome>;
-    /// The step from `x` to `x_new` was accepted (e.g. keep `k7` as the next `k1`).
-    fn accept(&mut self) {}
-    /// The inputs jumped at a breakpoint: drop anything carried over from the last step.
-    fn reset(&mut self) {}
-    /// Whether [`step`](Method::step) never returns [`Outcome::Retry`] (explicit
+    /// Whether [`Stepper::step`] never returns [`Outcome::Retry`] (explicit
     /// formulas and exact flows), so that a fixed-step run needs no retry logic.
     fn never_retries(&self) -> bool {
         false
     }
+    /// Whether the driver's crossing test applies to this method's adaptive steps (a
+    /// component stepped past zero where `f` points back is retried shorter; see
+    /// [`Integrator`](crate::Integrator)). On for the implicit methods, whose long steps
+    /// at a loose tolerance can carry a decaying component past zero, and for
+    /// [`Auto`](super::Auto) in both modes (its DOPRI5 steps do the same at `rtol` 0.1
+    /// before it switches); off for the plain explicit methods, where the one or two
+    /// `f` calls per crossing would cost 8 % on an orbit (Arenstorf at 1e-4) and a
+    /// stiff problem holds the step at the stability limit anyway.
+    fn crossing_test(&self) -> bool {
+        false
+    }
+    /// Whether the driver holds this method to [`Weights::tighten_loose`]'s tolerances
+    /// (`rtol` above 1e-3 tightened to `0.1·rtol^{2/3}`): on for the implicit methods,
+    /// whose large steps at a loose tolerance otherwise shift a limit cycle's phase by a
+    /// spike (OREGO at `rtol` 0.1–3e-2, `examples/tolerance_sweep.rs`).
+    fn tightens_loose_tolerances(&self) -> bool {
+        false
+    }
+    /// The stepper for a run from `(t0, x0)`: work space for `x0`'s dimension, and what
+    /// the first step needs evaluated (e.g. `f(t0, x0)` for FSAL).
+    fn stepper<S: System<D>>(self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<Self::Stepper>;
+}
+
+/// A method's run: its work space and what it carries from step to step. It takes one
+/// step from `(t, x)` with step `h`; it never loops over time. The
+/// [`Integrator`](crate::Integrator) drives every stepper through this trait and never
+/// asks which one it holds.
+pub trait Stepper<D: Dim>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    /// `f(t0, x0)` if building the stepper (or the last step, FSAL) already has it.
+    fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
+        None
+    }
+    /// Attempt one step ([`Step`]) into `s.x_new`.
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome>;
+    /// The step from `x` to `x_new` was accepted (e.g. keep `k7` as the next `k1`).
+    fn accept(&mut self) {}
+    /// The inputs jumped at a breakpoint: drop anything carried over from the last step.
+    fn reset(&mut self) {}
     /// Number of coefficients of the dense polynomial `x(t + θh) = Σ_j c_j θʲ`.
     fn dense_len(&self) -> usize {
         2
     }
     /// Fill `c` with the dense-output coefficients of the step just taken
-    /// (before [`accept`](Method::accept)). The default is linear interpolation.
+    /// (before [`accept`](Stepper::accept)). The default is linear interpolation.
     fn dense<S: System<D>>(
         &mut self,
         _f: &mut Eval<'_, D, S>,
@@ -152,38 +209,19 @@ where
         }
         state_error(x_new, t + h)
     }
-    /// A method that picks its own next step (variable order: BDF compares the error
+    /// A stepper that picks its own next step (variable order: BDF compares the error
     /// estimates of neighbouring orders) returns the factor for the next `|h|` after an
-    /// accepted step (`accepted`, called after [`accept`](Method::accept)) or a rejected
-    /// one with estimate `err`; `None` leaves it to the driver's [`controller`](Method::controller).
+    /// accepted step (`accepted`, called after [`accept`](Stepper::accept)) or a rejected
+    /// one with estimate `err`; `None` leaves it to the driver's
+    /// [`controller`](Method::controller).
     fn step_factor(&mut self, _accepted: bool, _err: f64) -> Option<f64> {
         None
     }
-    /// After [`accept`](Method::accept): the name of the method an auto-switching method
+    /// After [`accept`](Stepper::accept): the name of the method an auto-switching method
     /// ([`Auto`]) has just switched to, once; the driver records it in
     /// [`Solution::switches`](crate::Solution::switches).
     fn switched(&mut self) -> Option<(&'static str, crate::problem::solution::SwitchReason)> {
         None
-    }
-    /// Whether the driver's crossing test applies to this method's adaptive steps (a
-    /// component stepped past zero where `f` points back is retried shorter; see
-    /// [`Integrator`](crate::Integrator)). On for the implicit methods, whose long steps
-    /// at a loose tolerance can carry a decaying component past zero, and for
-    /// [`Auto`](super::Auto) in both modes (its DOPRI5 steps do the same at `rtol` 0.1
-    /// before it switches); off for the plain explicit methods, where the one or two
-    /// `f` calls per crossing would cost 8 % on an orbit (Arenstorf at 1e-4) and a
-    /// stiff problem holds the step at the stability limit anyway.
-    fn crossing_test(&self) -> bool {
-        false
-    }
-    /// Whether the driver holds this method to [`Weights::tighten_loose`]'s tolerances
-    /// (`rtol` above 1e-3 tightened to `0.1·rtol^{2/3}`): on for the implicit methods,
-    /// whose large steps at a loose tolerance otherwise shift a limit cycle's phase by a
-    /// spike (OREGO at `rtol` 0.1–3e-2, `examples/tolerance_sweep.rs`).
-    ///
-    /// [`Weights::tighten_loose`]: crate::methods::step_size::Weights::tighten_loose
-    fn tightens_loose_tolerances(&self) -> bool {
-        false
     }
     /// Estimate `|h·λ|` of the dominant eigenvalue for the step just taken
     /// (before `accept`), for stiffness detection; `None` if the method has none.

@@ -2,9 +2,9 @@
 //! `dopri5.f`): seven stages with FSAL, embedded 4th-order estimate, Shampine's
 //! 4th-order dense output, and Hairer's stiffness test.
 
-use super::{Method, Outcome};
+use super::{Method, Outcome, Step, Stepper};
 use crate::error::Result;
-use crate::methods::step_size::{Controller, Weights};
+use crate::methods::step_size::Controller;
 use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -88,17 +88,6 @@ pub mod tableau {
 
 use tableau::{A, C, D as DW, E};
 
-/// Stage derivatives `k₁…k₇` and stage arguments, inline for fixed sizes.
-#[derive(Debug, Clone)]
-struct Work<D: Dim>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    k: [OVector<f64, D>; 7],
-    y: OVector<f64, D>,
-    y6: OVector<f64, D>,
-}
-
 /// Dormand–Prince 5(4): `x₁ = x₀ + h Σ bᵢ kᵢ`, error `h Σ eᵢ kᵢ`, FSAL (`k₇ = f(t₁, x₁)`
 /// is the next step's `k₁`), six new `f` evaluations per step.
 ///
@@ -109,41 +98,27 @@ where
 /// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
 /// assert!((sol.last().1[0] - (-1.0f64).exp()).abs() < 1e-10);
 /// ```
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Rk45;
+
+/// [`Rk45`]'s run: the stage derivatives `k₁…k₇` and stage arguments (inline for fixed
+/// sizes), and whether `k₁` holds `f(t, x)` for the next step (FSAL).
 #[derive(Debug, Clone)]
-pub struct Rk45<D: Dim>
+pub struct Rk45Stepper<D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
-    work: Option<Work<D>>,
+    k: [OVector<f64, D>; 7],
+    y: OVector<f64, D>,
+    y6: OVector<f64, D>,
     fsal: bool,
 }
 
-impl<D: Dim> Rk45<D>
+impl<D: Dim> Method<D> for Rk45
 where
     DefaultAllocator: Allocator<D>,
 {
-    /// A fresh stepper (work space is allocated by the integrator's setup).
-    pub fn new() -> Self {
-        Rk45 {
-            work: None,
-            fsal: false,
-        }
-    }
-}
-
-impl<D: Dim> Default for Rk45<D>
-where
-    DefaultAllocator: Allocator<D>,
-{
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-impl<D: Dim> Method<D> for Rk45<D>
-where
-    DefaultAllocator: Allocator<D>,
-{
+    type Stepper = Rk45Stepper<D>;
     fn name(&self) -> &'static str {
         "rk45"
     }
@@ -156,37 +131,40 @@ where
     fn controller(&self) -> Controller {
         Controller::new(4, 0.04)
     }
-    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<()> {
-        let w = self.work.insert(Work {
+    fn stepper<S: System<D>>(self, f: &mut Eval<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<Rk45Stepper<D>> {
+        let mut s = Rk45Stepper {
             k: std::array::from_fn(|_| x0.clone()),
             y: x0.clone(),
             y6: x0.clone(),
-        });
-        f.rhs(t0, x0, &mut w.k[0])?;
-        self.fsal = true;
-        Ok(())
+            fsal: true,
+        };
+        f.rhs(t0, x0, &mut s.k[0])?;
+        Ok(s)
     }
+}
+
+impl<D: Dim> Stepper<D> for Rk45Stepper<D>
+where
+    DefaultAllocator: Allocator<D>,
+{
     fn derivative_at_start(&self) -> Option<&OVector<f64, D>> {
-        self.work.as_ref().filter(|_| self.fsal).map(|w| &w.k[0])
+        self.fsal.then_some(&self.k[0])
     }
     #[inline(always)]
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        w: &Weights<D>,
-        adaptive: bool,
-    ) -> Result<Outcome> {
-        let Some(Work { k, y, y6 }) = self.work.as_mut() else {
-            return Err(crate::Error::invalid("method", "Rk45::step called before init"));
-        };
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome> {
+        let Step {
+            t,
+            x,
+            h,
+            x_new,
+            w,
+            adaptive,
+        } = s;
+        let Rk45Stepper { k, y, y6, fsal } = self;
         let [k1, k2, k3, k4, k5, k6, k7] = k;
-        if !self.fsal {
+        if !*fsal {
             refresh_k1(f, t, x, k1);
-            self.fsal = true;
+            *fsal = true;
         }
         let n = x.len();
         // stage arguments written out as in the paper; slices of equal, known length
@@ -279,10 +257,7 @@ where
         h: f64,
         x_new: &OVector<f64, D>,
     ) -> crate::Error {
-        let Some(w) = self.work.as_ref() else {
-            return crate::Error::invalid("method", "Rk45::diagnose called before init");
-        };
-        for (i, k) in w.k.iter().enumerate() {
+        for (i, k) in self.k.iter().enumerate() {
             if let Err(e) = crate::model::finite(k.as_slice(), t + C[i] * h, crate::error::Quantity::Derivative) {
                 return e;
             }
@@ -296,13 +271,11 @@ where
             })
     }
     fn accept(&mut self) {
-        if let Some(w) = self.work.as_mut() {
-            // a swap: k₇ = f(t₁, x₁) is the next step's k₁, and the accepted step's own
-            // k₁ stays readable in k₇'s slot (which the next step overwrites) for
-            // [`Rk45::stages`]
-            let [k1, .., k7] = &mut w.k;
-            std::mem::swap(k1, k7);
-        }
+        // a swap: k₇ = f(t₁, x₁) is the next step's k₁, and the accepted step's own
+        // k₁ stays readable in k₇'s slot (which the next step overwrites) for
+        // [`Rk45Stepper::stages`]
+        let [k1, .., k7] = &mut self.k;
+        std::mem::swap(k1, k7);
     }
     fn reset(&mut self) {
         self.fsal = false;
@@ -321,9 +294,7 @@ where
         x_new: &OVector<f64, D>,
         c: &mut [OVector<f64, D>],
     ) -> Result<()> {
-        let Some(Work { k, .. }) = self.work.as_ref() else {
-            return Err(crate::Error::invalid("method", "Rk45::dense called before init"));
-        };
+        let k = &self.k;
         for i in 0..x.len() {
             let r = contd5(h, x[i], x_new[i], |j| k[j][i]);
             for (cp, rp) in c.iter_mut().zip(r) {
@@ -334,23 +305,22 @@ where
     }
     /// Hairer's test `h·λ ≈ |h|·‖k₇ − k₆‖ / ‖x₁ − y₆‖` (both stages at `t + h`).
     fn stiffness(&self, h: f64, x_new: &OVector<f64, D>) -> Option<f64> {
-        let w = self.work.as_ref()?;
-        let num = (&w.k[6] - &w.k[5]).norm();
-        let den = (x_new - &w.y6).norm();
+        let num = (&self.k[6] - &self.k[5]).norm();
+        let den = (x_new - &self.y6).norm();
         (den > 0.0).then(|| h.abs() * num / den)
     }
 }
 
-impl<D: Dim> Rk45<D>
+impl<D: Dim> Rk45Stepper<D>
 where
     DefaultAllocator: Allocator<D>,
 {
-    /// The stage derivatives `k₁…k₇` of the last accepted step, in order (`None` before
-    /// the first step): what a scheme differentiating the step needs (the staggered
-    /// sensitivities of [`crate::sensitivity`]). Valid until the next step.
-    pub(crate) fn stages(&self) -> Option<[&OVector<f64, D>; 7]> {
-        let [k7, k2, k3, k4, k5, k6, k1] = self.work.as_ref().map(|w| &w.k)?.each_ref();
-        Some([k1, k2, k3, k4, k5, k6, k7])
+    /// The stage derivatives `k₁…k₇` of the last accepted step, in order: what a scheme
+    /// differentiating the step needs (the staggered sensitivities of
+    /// [`crate::sensitivity`]). Valid after an accepted step, until the next step.
+    pub(crate) fn stages(&self) -> [&OVector<f64, D>; 7] {
+        let [k7, k2, k3, k4, k5, k6, k1] = self.k.each_ref();
+        [k1, k2, k3, k4, k5, k6, k7]
     }
 }
 

@@ -2,10 +2,10 @@
 //! with an embedded method of order 4 and a dense output of order 4.
 
 use super::iteration::IterationMatrix;
-use super::{Failure, Method, Outcome};
+use super::{Failure, Method, Outcome, Step, Stepper};
 use crate::error::Result;
 use crate::linalg::LuDim;
-use crate::methods::step_size::{Controller, Weights};
+use crate::methods::step_size::Controller;
 use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
@@ -173,7 +173,8 @@ pub const H: [[f64; 8]; 3] = [
     ],
 ];
 
-struct Work<D: LuDim>
+/// [`Rodas5P`]'s run: the stages, the linearisation and the LU of `W`.
+pub struct Rodas5PStepper<D: LuDim>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
@@ -225,26 +226,14 @@ where
 /// let exact = (1e6 * 1f64.cos() + 1e3 * 1f64.sin()) / (1e6 + 1.0);
 /// assert!((sol.last().1[0] - exact).abs() < 1e-8);
 /// ```
-pub struct Rodas5P<D: LuDim>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
-    work: Option<Work<D>>,
-}
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Rodas5P;
 
-impl<D: LuDim> Default for Rodas5P<D>
+impl<D: LuDim> Method<D> for Rodas5P
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    fn default() -> Self {
-        Rodas5P { work: None }
-    }
-}
-
-impl<D: LuDim> Method<D> for Rodas5P<D>
-where
-    DefaultAllocator: Allocator<D> + Allocator<D, D>,
-{
+    type Stepper = Rodas5PStepper<D>;
     fn tightens_loose_tolerances(&self) -> bool {
         true
     }
@@ -263,8 +252,13 @@ where
     fn controller(&self) -> Controller {
         Controller::new(4, 0.04)
     }
-    fn init<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, _t0: f64, x0: &OVector<f64, D>) -> Result<()> {
-        self.work = Some(Work {
+    fn stepper<S: System<D>>(
+        self,
+        f: &mut Eval<'_, D, S>,
+        _t0: f64,
+        x0: &OVector<f64, D>,
+    ) -> Result<Rodas5PStepper<D>> {
+        Ok(Rodas5PStepper {
             k: std::array::from_fn(|_| x0.clone()),
             u: x0.clone(),
             fx: x0.clone(),
@@ -272,27 +266,27 @@ where
             x_at: x0.clone(),
             t_at: f64::NAN,
             lin: IterationMatrix::new(f, x0)?,
-        });
-        Ok(())
+        })
     }
+}
+
+impl<D: LuDim> Stepper<D> for Rodas5PStepper<D>
+where
+    DefaultAllocator: Allocator<D> + Allocator<D, D>,
+{
     fn reset(&mut self) {
-        if let Some(w) = self.work.as_mut() {
-            w.t_at = f64::NAN;
-        }
+        self.t_at = f64::NAN;
     }
-    fn step<S: System<D>>(
-        &mut self,
-        f: &mut Eval<'_, D, S>,
-        t: f64,
-        x: &OVector<f64, D>,
-        h: f64,
-        x_new: &mut OVector<f64, D>,
-        wt: &Weights<D>,
-        adaptive: bool,
-    ) -> Result<Outcome> {
-        let Some(w) = self.work.as_mut() else {
-            return Err(crate::Error::invalid("method", "Rodas5P::step called before init"));
-        };
+    fn step<S: System<D>>(&mut self, f: &mut Eval<'_, D, S>, s: Step<'_, D>) -> Result<Outcome> {
+        let Step {
+            t,
+            x,
+            h,
+            x_new,
+            w: wt,
+            adaptive,
+        } = s;
+        let w = self;
         if !(w.t_at == t && w.x_at == *x) {
             f.rhs(t, x, &mut w.fx)?;
             w.lin.evaluate(f, t, x)?;
@@ -314,7 +308,7 @@ where
         if !w.lin.factor(inv_hg, -1.0) {
             return Ok(Outcome::Retry(Failure::Singular));
         }
-        let Work {
+        let Rodas5PStepper {
             k, u, fx, dfdt, lin, ..
         } = w;
         for s in 0..STAGES {
@@ -363,9 +357,7 @@ where
         x_new: &OVector<f64, D>,
         c: &mut [OVector<f64, D>],
     ) -> Result<()> {
-        let Some(w) = self.work.as_ref() else {
-            return Err(crate::Error::invalid("method", "Rodas5P::dense called before init"));
-        };
+        let w = &*self;
         for i in 0..x.len() {
             let kr = |r: usize| (0..STAGES).map(|j| H[r][j] * w.k[j][i]).sum::<f64>();
             let (k1, k2, k3) = (kr(0), kr(1), kr(2));

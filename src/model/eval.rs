@@ -116,7 +116,7 @@ where
     }
 
     /// `dx ← f(t, x)`, counted but not checked: for explicit kernels whose step result
-    /// the driver checks (and then asks [`Method::diagnose`](crate::methods::Method::diagnose) where it broke).
+    /// the driver checks (and then asks [`Stepper::diagnose`](crate::methods::Stepper::diagnose) where it broke).
     #[inline(always)]
     pub fn rhs_unchecked(&mut self, t: f64, x: &OVector<f64, D>, dx: &mut OVector<f64, D>) {
         self.stats.rhs_evals += 1;

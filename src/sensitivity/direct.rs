@@ -21,7 +21,7 @@ use nalgebra::{DVector, DefaultAllocator, Dim, Dyn, OMatrix, OVector, U1};
 /// exact at the computed `x₁` (one dual evaluation) and `I − h·J` factored once.
 pub(super) fn implicit_euler<D: LuDim, S: DualSystem<D>>(
     problem: &Problem<'_, D, S>,
-    method: ImplicitEuler<D>,
+    method: ImplicitEuler,
     opts: &Options,
     sens: &SensitivityOptions,
 ) -> Result<Sensitivities<D>>
@@ -191,7 +191,7 @@ where
     let (m, _) = sens.wrt.columns(n, np);
     let nm = n * m;
     let r = D::from_usize(n);
-    let mut it = problem.integrator(Rk45::<D>::new(), opts)?;
+    let mut it = problem.integrator(Rk45, opts)?;
     let mut z = stacked_start(problem.x0.as_slice(), m, sens.wrt);
     let mut out = Saver::<Dyn, _>::with_store(&opts.save, it.direction(), problem.t0, &z, Split::<D>::new(n, m));
     let at_times = needs_dense(&opts.save);
@@ -233,9 +233,7 @@ where
             continue;
         }
         let (t, h, _) = it.last_step();
-        let Some(k) = it.method().stages() else {
-            return Err(Error::invalid("method", "Rk45 took a step without stages"));
-        };
+        let k = it.stepper().stages();
         let s0 = &z.as_slice()[n..];
         // K₁: the last step's K₇ when k₁ is its k₇ (same inputs, same value), else fresh
         let fsal = k7_prev.as_ref().is_some_and(|k7| k7 == k[0]) && u == u_prev;

@@ -340,19 +340,19 @@ macro_rules! augment_as_is {
 
 augment_as_is!(
     crate::methods::Euler,
-    crate::methods::Bdf<Dyn>,
-    crate::methods::Rodas5P<Dyn>,
-    crate::methods::ExponentialEuler<Dyn>,
-    crate::methods::Auto<Dyn>
+    crate::methods::Bdf,
+    crate::methods::Rodas5P,
+    crate::methods::ExponentialEuler,
+    crate::methods::Auto
 );
 
 /// Dormand–Prince: the augmented system when the sensitivities are in the error control,
 /// otherwise the staggered direct scheme on the plain solve's steps ([`solve`]).
-impl<D: Dim> Augment<D> for Rk45<Dyn>
+impl<D: Dim> Augment<D> for Rk45
 where
     DefaultAllocator: Allocator<D>,
 {
-    type Method = Rk45<Dyn>;
+    type Method = Rk45;
     fn augment(self, _n: usize, _n_params: usize) -> Result<Self::Method> {
         Ok(self)
     }
@@ -372,11 +372,11 @@ where
 /// Implicit Euler: the augmented system when the sensitivities are in the error
 /// control, otherwise the staggered direct scheme ([`solve`]), which needs the plain
 /// method at `D` (`D: LuDim`, as a plain implicit Euler solve does).
-impl<D: LuDim> Augment<D> for ImplicitEuler<Dyn>
+impl<D: LuDim> Augment<D> for ImplicitEuler
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    type Method = ImplicitEuler<Dyn>;
+    type Method = ImplicitEuler;
     fn augment(self, _n: usize, _n_params: usize) -> Result<Self::Method> {
         Ok(self)
     }
@@ -389,14 +389,7 @@ where
     where
         DefaultAllocator: Allocator<D, D> + Allocator<U1, D>,
     {
-        (!sens.error_control).then(|| {
-            direct::implicit_euler(
-                problem,
-                ImplicitEuler::<D>::new(self.newton).proportional(self.proportional),
-                opts,
-                sens,
-            )
-        })
+        (!sens.error_control).then(|| direct::implicit_euler(problem, *self, opts, sens))
     }
 }
 

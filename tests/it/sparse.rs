@@ -432,10 +432,16 @@ fn brusselator_2d_matches_published_rhs() {
 #[test]
 fn methods_are_send_and_sync() {
     fn check<T: Send + Sync>() {}
-    check::<ImplicitEuler<Dyn>>();
-    check::<Bdf<Dyn>>();
-    check::<Rodas5P<Dyn>>();
-    check::<reckon::methods::Auto<Dyn>>();
+    use reckon::methods::{Auto, auto::AutoStepper, bdf::BdfStepper};
+    use reckon::methods::{implicit_euler::ImplicitEulerStepper, rodas5p::Rodas5PStepper};
+    check::<ImplicitEuler>();
+    check::<Bdf>();
+    check::<Rodas5P>();
+    check::<Auto>();
+    check::<ImplicitEulerStepper<Dyn>>();
+    check::<BdfStepper<Dyn>>();
+    check::<Rodas5PStepper<Dyn>>();
+    check::<AutoStepper<Dyn>>();
     check::<SparseLu>();
 }
 

@@ -2,7 +2,6 @@
 
 use nalgebra::vector;
 use num_complex::Complex64;
-use reckon::methods::Rk45;
 use reckon::model::Flow;
 use reckon::studies::MethodKind::{self, *};
 use reckon::studies::convergence::convergence;
@@ -115,7 +114,9 @@ fn euler_threshold_within_one_percent() {
 fn rk45_step_pinned_by_stability() {
     let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 300.0));
     let opts = Options::default().rtol(1e-3).atol(1e-6);
-    let rk = p.solve(Rk45::default(), &opts.clone().max_steps(1_000_000)).unwrap();
+    let rk = p
+        .solve(reckon::methods::Rk45, &opts.clone().max_steps(1_000_000))
+        .unwrap();
     let ie = p.solve(reckon::methods::ImplicitEuler::default(), &opts).unwrap();
     let hr = step_history(&rk);
     let hi = step_history(&ie);

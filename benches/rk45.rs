@@ -68,7 +68,7 @@ fn bench_problem<const N: usize, H: Fn(f64, &[f64; N]) -> [f64; N] + Copy>(
     let p = Problem::new(&sys, nalgebra::SVector::from(x0), (0.0, t_end));
     for tol in [1e-4, 1e-6, 1e-8, 1e-10] {
         let opts = Options::default().rtol(tol).atol(tol).dense(false);
-        let r = p.solve(Rk45::default(), &opts).unwrap();
+        let r = p.solve(Rk45, &opts).unwrap();
         let h = handwritten::dopri5(hand, 0.0, t_end, x0, tol);
         let (_, os_evals) = ode_solvers_run(hand, x0, t_end, tol);
         eprintln!(
@@ -76,7 +76,7 @@ fn bench_problem<const N: usize, H: Fn(f64, &[f64; N]) -> [f64; N] + Copy>(
             r.stats.rhs_evals, h.evals
         );
         g.bench_with_input(BenchmarkId::new("reckon", tol), &tol, |b, _| {
-            b.iter(|| black_box(p.solve(Rk45::default(), black_box(&opts)).unwrap().stats.accepted))
+            b.iter(|| black_box(p.solve(Rk45, black_box(&opts)).unwrap().stats.accepted))
         });
         g.bench_with_input(BenchmarkId::new("hand-written", tol), &tol, |b, &tol| {
             b.iter(|| black_box(handwritten::dopri5(hand, 0.0, t_end, black_box(x0), tol).accepted))

@@ -65,8 +65,8 @@ fn bench(c: &mut Criterion) {
             };
         }
         if name == "rk45" {
-            pair!("diff-drive", p, Rk45::default());
-            pair!("van-der-pol", q, Rk45::default());
+            pair!("diff-drive", p, Rk45);
+            pair!("van-der-pol", q, Rk45);
         } else {
             pair!("diff-drive", p, ImplicitEuler::default());
             pair!("van-der-pol", q, ImplicitEuler::default());

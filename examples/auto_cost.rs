@@ -70,7 +70,7 @@ fn all<const N: usize, F: DualSystem<nalgebra::Const<N>> + Clone>(
         let o = Options::default().rtol(rtol).atol(rtol * atol_rel).max_steps(5_000_000);
         let p = Problem::new(f.clone(), y0, (0.0, t1));
         row(name, "dopri5", rtol, rtol * atol_rel, &r, || {
-            p.solve(Rk45::default(), &o)
+            p.solve(Rk45, &o)
         });
         row(name, "bdf", rtol, rtol * atol_rel, &r, || p.solve(Bdf::default(), &o));
         row(name, "auto", rtol, rtol * atol_rel, &r, || p.solve(Auto::default(), &o));
@@ -114,7 +114,7 @@ fn main() {
     // not stiff: Auto should stay with DOPRI5 (reference: DOPRI5 at rtol 1e-13)
     let p = Problem::new(lorenz(), lorenz_y0(), (0.0, 2.0));
     let tight = Options::default().rtol(1e-13).atol(1e-13).max_steps(5_000_000);
-    let r = p.solve(Rk45::default(), &tight).unwrap();
+    let r = p.solve(Rk45, &tight).unwrap();
     let r = *r.last().1;
     all("lorenz", lorenz(), lorenz_y0(), 2.0, [r[0], r[1], r[2]], 1.0, &rtols);
 }

@@ -36,7 +36,7 @@ fn main() {
     } else {
         Options::default().rtol(1e-4).atol(1e-4).dense(dense).save(save)
     };
-    let s = p.solve(Rk45::default(), &o).unwrap();
+    let s = p.solve(Rk45, &o).unwrap();
     println!(
         "{mode}: {} steps, {} kept, {:.1} MiB kept, peak RSS {:.1} MiB",
         s.stats.accepted,

@@ -124,13 +124,13 @@ fn rk45_problem<const N: usize, H: Fn(f64, &[f64; N]) -> [f64; N] + Copy>(
     let p = Problem::new(&sys, SVector::from(x0), (0.0, t_end));
     for tol in [1e-4, 1e-6, 1e-8, 1e-10] {
         let opts = Options::default().rtol(tol).atol(tol).dense(false);
-        let r = p.solve(Rk45::default(), &opts).unwrap();
+        let r = p.solve(Rk45, &opts).unwrap();
         let h = handwritten::dopri5(hand, 0.0, t_end, x0, tol);
         let (_, os_evals) = os_run::run(hand, x0, t_end, tol);
         let mut cs = vec![
             Contender::new("reckon", |n| {
                 for _ in 0..n {
-                    black_box(p.solve(Rk45::default(), black_box(&opts)).unwrap().stats.accepted);
+                    black_box(p.solve(Rk45, black_box(&opts)).unwrap().stats.accepted);
                 }
             }),
             Contender::new("hand", |n| {
@@ -488,7 +488,7 @@ fn sparse(rounds: usize) {
     let kept = brusselator(N);
     let o = bruss_opts(1e-11, LinearSolver::Sparse);
     let p = Problem::new(&hand, y0.clone(), (0.0, T_END));
-    let r = p.solve(Rodas5P::default(), &o).expect("reference").last().1.clone();
+    let r = p.solve(Rodas5P, &o).expect("reference").last().1.clone();
     let r2 = p.solve(Bdf::default(), &o).expect("reference").last().1.clone();
     println!(
         "reference: Rodas5P and Bdf at 1e-11 agree to {:.2} digits",
@@ -502,7 +502,7 @@ fn sparse(rounds: usize) {
     };
     let rodas_at = |rtol: f64| {
         Problem::new(&hand, y0.clone(), (0.0, T_END))
-            .solve(Rodas5P::default(), &bruss_opts(rtol, LinearSolver::Sparse))
+            .solve(Rodas5P, &bruss_opts(rtol, LinearSolver::Sparse))
             .map_or(f64::NEG_INFINITY, |s| bruss_digits(s.last().1, &r))
     };
     let ds_at = |rtol: f64| bruss_digits(&ds::kept(rtol, &y0, T_END)(), &r);
@@ -617,7 +617,7 @@ fn sparse(rounds: usize) {
             for _ in 0..n {
                 solve(&|| {
                     Problem::new(&hand, y0.clone(), (0.0, T_END))
-                        .solve(Rodas5P::default(), &or)
+                        .solve(Rodas5P, &or)
                         .unwrap()
                         .last()
                         .1

@@ -25,7 +25,7 @@ fn run<const N: usize>(
     let mut acc = 0;
     for _ in 0..reps {
         acc += match who {
-            "reckon" => black_box(p.solve(Rk45::default(), black_box(&opts)).unwrap().stats.accepted),
+            "reckon" => black_box(p.solve(Rk45, black_box(&opts)).unwrap().stats.accepted),
             _ => black_box(handwritten::dopri5(hand, 0.0, t_end, black_box(x0), tol).accepted),
         };
     }

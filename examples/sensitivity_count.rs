@@ -80,9 +80,9 @@ fn main() {
     }
     if mode == "time" {
         match (prob.as_str(), method.as_str()) {
-            ("drive", "rk45") => time!(drive, Rk45::default()),
+            ("drive", "rk45") => time!(drive, Rk45),
             ("drive", _) => time!(drive, ImplicitEuler::default()),
-            (_, "rk45") => time!(q, Rk45::default()),
+            (_, "rk45") => time!(q, Rk45),
             _ => time!(q, ImplicitEuler::default()),
         }
         black_box(acc);
@@ -92,7 +92,7 @@ fn main() {
         ($p:expr) => {
             for _ in 0..reps {
                 acc += match (mode.as_str(), method.as_str()) {
-                    ("plain", "rk45") => $p.solve(Rk45::default(), black_box(&o)).unwrap().stats.accepted,
+                    ("plain", "rk45") => $p.solve(Rk45, black_box(&o)).unwrap().stats.accepted,
                     ("plain", _) => {
                         $p.solve(ImplicitEuler::default(), black_box(&o))
                             .unwrap()
@@ -100,7 +100,7 @@ fn main() {
                             .accepted
                     }
                     (_, "rk45") => {
-                        sensitivity::solve(&$p, Rk45::default(), black_box(&o), so)
+                        sensitivity::solve(&$p, Rk45, black_box(&o), so)
                             .unwrap()
                             .stats
                             .accepted

@@ -270,7 +270,7 @@ fn versus() {
     // reference: Rodas5P and Bdf at 1e-11 (sparse, exact J)
     let o = Options::default().rtol(1e-11).atol(1e-11).save(Save::End).dense(false);
     let p = Problem::new(&hand, brusselator_y0(N), (0.0, T_END));
-    let r1 = p.solve(Rodas5P::default(), &o).expect("reference").last().1.clone();
+    let r1 = p.solve(Rodas5P, &o).expect("reference").last().1.clone();
     let r2 = p.solve(Bdf::default(), &o).expect("reference").last().1.clone();
     println!(
         "reference: Rodas5P and Bdf at 1e-11 agree to {:.2} digits",
@@ -332,7 +332,7 @@ fn versus() {
             .dense(false)
             .linear_solver(LinearSolver::Sparse);
         Problem::new(&hand, brusselator_y0(N), (0.0, T_END))
-            .solve(Rodas5P::default(), &o)
+            .solve(Rodas5P, &o)
             .expect("solves")
             .last()
             .1

@@ -45,7 +45,7 @@ where
         for m in methods {
             let r = match *m {
                 "bdf" => p.solve(Bdf::default(), &opts),
-                "rodas5p" => p.solve(Rodas5P::default(), &opts),
+                "rodas5p" => p.solve(Rodas5P, &opts),
                 "auto" => p.solve(Auto::default(), &opts),
                 "implicit-euler" => p.solve(ImplicitEuler::default(), &opts),
                 _ => panic!("method {m}"),

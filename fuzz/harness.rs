@@ -1103,7 +1103,7 @@ where
             });
             drive(&p, b, opts, plan)
         }
-        6 => drive(&p, Rodas5P::default(), &capped(opts, n, 300), plan),
+        6 => drive(&p, Rodas5P, &capped(opts, n, 300), plan),
         7 => {
             let mut a = Auto::default();
             if u.arbitrary()? {
@@ -1111,7 +1111,7 @@ where
             }
             drive(&p, a, opts, plan)
         }
-        8 => drive(&p, ExponentialEuler::default(), &capped(opts, n, 150), plan),
+        8 => drive(&p, ExponentialEuler, &capped(opts, n, 150), plan),
         _ => sensitivities(u, &p, n, opts, plan, exact_sens)?,
     }
     Ok(())
@@ -1128,7 +1128,7 @@ where
         0 => drive(p, Euler, opts, plan),
         1 => drive(p, ImplicitEuler::default(), opts, plan),
         2 => drive(p, ImplicitEuler::new(plan.newton), opts, plan),
-        3 => drive(p, Rk45::default(), opts, plan),
+        3 => drive(p, Rk45, opts, plan),
         _ => drive(p, Exact::new(flow), opts, plan),
     }
 }
@@ -1238,8 +1238,8 @@ where
         2 => probe_sens(sensitivity::solve(p, ImplicitEuler::new(plan.newton), &opts, &so)),
         3 => probe_sens(sensitivity::solve(p, Rk45, &opts, &so)),
         4 => probe_sens(sensitivity::solve(p, Bdf::default(), &opts, &so)),
-        5 => probe_sens(sensitivity::solve(p, Rodas5P::default(), &opts, &so)),
-        6 => probe_sens(sensitivity::solve(p, ExponentialEuler::default(), &opts, &so)),
+        5 => probe_sens(sensitivity::solve(p, Rodas5P, &opts, &so)),
+        6 => probe_sens(sensitivity::solve(p, ExponentialEuler, &opts, &so)),
         7 => probe_sens(sensitivity::solve(p, Auto::default(), &opts, &so)),
         _ => exact_sens(p, &opts, &so),
     }

@@ -10,7 +10,7 @@
 //! use reckon::prelude::*;
 //! let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]); // harmonic oscillator
 //! let sol = Problem::new(&f, vector![1.0, 0.0], (0.0, std::f64::consts::PI))
-//!     .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12))
+//!     .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12))
 //!     .unwrap();
 //! assert!((sol.last().1[0] + 1.0).abs() < 1e-9);
 //! let m: Matrix2<f64> = matrix![1.0, 2.0; 3.0, 4.0];

@@ -71,9 +71,9 @@ fn fixed_size_steps_allocate_nothing() {
         0,
         "explicit Euler"
     );
-    assert_eq!(allocs_in_steps(&vdp, Rk45::default(), &opts, 50), 0, "adaptive RK45");
+    assert_eq!(allocs_in_steps(&vdp, Rk45, &opts, 50), 0, "adaptive RK45");
     assert_eq!(
-        allocs_in_steps(&vdp, Rk45::default(), &opts.clone().fixed(0.01), 200),
+        allocs_in_steps(&vdp, Rk45, &opts.clone().fixed(0.01), 200),
         0,
         "fixed RK45"
     );
@@ -94,11 +94,11 @@ fn fixed_size_steps_allocate_nothing() {
         n, 0,
         "adaptive implicit Euler on Robertson (Jacobian refreshes and LU included)"
     );
-    let (n, stats) = allocs_and_stats(&rob, Rodas5P::default(), &opts.clone().rtol(1e-6).atol(1e-10), 100);
+    let (n, stats) = allocs_and_stats(&rob, Rodas5P, &opts.clone().rtol(1e-6).atol(1e-10), 100);
     assert!(stats.jacobian_evals > 50 && stats.lu_decompositions > 50, "{stats:?}");
     assert_eq!(n, 0, "adaptive Rodas5P on Robertson");
     assert_eq!(
-        allocs_in_steps(&vdp, Rodas5P::default(), &opts.clone().fixed(0.01), 200),
+        allocs_in_steps(&vdp, Rodas5P, &opts.clone().fixed(0.01), 200),
         0,
         "Rodas5P fixed"
     );
@@ -116,7 +116,7 @@ fn fixed_size_steps_allocate_nothing() {
         "exact flow"
     );
     assert_eq!(
-        allocs_in_steps(&uni, Rk45::default(), &opts, 200),
+        allocs_in_steps(&uni, Rk45, &opts, 200),
         0,
         "RK45 across breakpoints"
     );
@@ -126,7 +126,7 @@ fn fixed_size_steps_allocate_nothing() {
         "IE across breakpoints"
     );
     assert_eq!(
-        allocs_in_steps(&uni, Rodas5P::default(), &opts, 200),
+        allocs_in_steps(&uni, Rodas5P, &opts, 200),
         0,
         "Rodas5P across breakpoints"
     );

@@ -149,7 +149,7 @@ where
     let sol = match who {
         Who::ImplicitEuler => p.solve(ImplicitEuler::default(), o),
         Who::Bdf => p.solve(Bdf::default(), o),
-        Who::Rodas5P => p.solve(Rodas5P::default(), o),
+        Who::Rodas5P => p.solve(Rodas5P, o),
         Who::Diffsol => unreachable!("not a reckon method"),
     }
     .map_err(|e| e.to_string())?;

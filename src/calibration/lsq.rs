@@ -334,7 +334,7 @@ fn identifiability(j: &DMatrix<f64>) -> (f64, usize) {
 ///     t, components: vec![0], sigma: vec![1e-3], angles: vec![],
 /// };
 /// let u = Controls::new(vec![0.0], vec![vec![0.0]]).unwrap();
-/// let fit = lsq::fit(&build, &[0.2], &vector![1.0], 0.0, &u, &obs, Rk45::default(),
+/// let fit = lsq::fit(&build, &[0.2], &vector![1.0], 0.0, &u, &obs, Rk45,
 ///     &Options::default().rtol(1e-10).atol(1e-12), &LsqOptions::default()).unwrap();
 /// assert!((fit.estimate.value[0] - 0.7).abs() < 1e-8);
 /// ```
@@ -539,7 +539,7 @@ pub fn fit_encoder_log(
         t0,
         &controls,
         &obs,
-        crate::methods::Rk45::default(),
+        crate::methods::Rk45,
         &Options::default().rtol(1e-9).atol(1e-12).max_steps(10_000_000),
         &LsqOptions::default(),
     )?;

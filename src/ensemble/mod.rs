@@ -710,7 +710,7 @@ impl Ensemble {
     /// let stats = Ensemble::new(4000, 1)
     ///     .solve(&layout, |m| {
     ///         let x0 = Normal::new(1.0, 0.1).unwrap().sample(m.rng());
-    ///         Problem::new(&f, vector![x0], (0.0, 1.0)).solve(Rk45::default(), &opts)
+    ///         Problem::new(&f, vector![x0], (0.0, 1.0)).solve(Rk45, &opts)
     ///     })
     ///     .unwrap();
     /// let sd = stats.covariance(0)[(0, 0)].sqrt();

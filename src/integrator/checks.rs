@@ -19,10 +19,10 @@ where
     pub(super) fn enter_segment(&mut self) {
         let problem: &'p _ = self.problem;
         if let Some(c) = &problem.controls
-            && let Some(k) = c.segment_near(self.t, self.dir, self.segment)
-            && Some(k) != self.segment
+            && let Some(k) = c.segment_near(self.t, self.dir, self.stops.segment)
+            && Some(k) != self.stops.segment
         {
-            self.segment = Some(k);
+            self.stops.segment = Some(k);
             self.f.hold_row(c.values(k).unwrap_or_default());
         }
         self.stepper.reset();
@@ -35,8 +35,8 @@ where
     pub(super) fn check_stiffness(&mut self, h: f64, t_new: f64) {
         // the common case in two compares: not due, no stiff verdict standing (the same
         // branch as the first return in `stiffness_test`, without reading the option)
-        if self.stiff_countdown > 1 && self.stiff_count.0 == 0 {
-            self.stiff_countdown -= 1;
+        if self.stiff.countdown > 1 && self.stiff.count.0 == 0 {
+            self.stiff.countdown -= 1;
             return;
         }
         self.stiffness_test(h, t_new);
@@ -45,14 +45,14 @@ where
     /// The body of [`check_stiffness`](Self::check_stiffness) off its fast path.
     #[inline(never)]
     fn stiffness_test(&mut self, h: f64, t_new: f64) {
-        let Some(every) = self.stiff_every else { return };
-        let (stiff, nonstiff) = &mut self.stiff_count;
-        self.stiff_countdown -= 1;
-        if self.stiff_countdown > 0 && *stiff == 0 {
+        let Some(every) = self.stiff.every else { return };
+        let (stiff, nonstiff) = &mut self.stiff.count;
+        self.stiff.countdown -= 1;
+        if self.stiff.countdown > 0 && *stiff == 0 {
             return;
         }
-        if self.stiff_countdown == 0 {
-            self.stiff_countdown = every;
+        if self.stiff.countdown == 0 {
+            self.stiff.countdown = every;
         }
         let Some(hl) = self.stepper.stiffness(h, &self.x_new) else {
             return;
@@ -60,8 +60,8 @@ where
         if hl > 3.25 {
             *nonstiff = 0;
             *stiff += 1;
-            if *stiff == 15 && self.stiffness.is_none() {
-                self.stiffness = Some(Stiffness { t: t_new, h_lambda: hl });
+            if *stiff == 15 && self.stiff.verdict.is_none() {
+                self.stiff.verdict = Some(Stiffness { t: t_new, h_lambda: hl });
             }
         } else {
             *nonstiff += 1;
@@ -85,20 +85,20 @@ where
             if g1.is_nan() {
                 return Err(crate::Error::EventNaN { index: i, t: *t_new });
             }
-            if ev.crosses(self.g_prev[i], g1) {
+            if ev.crosses(self.events.g_prev[i], g1) {
                 let te = if g1 == 0.0 {
                     *t_new
                 } else {
-                    locate(ev, i, &self.dense, self.t, h, *t_new)?
+                    locate(ev, i, &self.output.dense, self.t, h, *t_new)?
                 };
                 found.push((te, i));
             }
-            self.g_prev[i] = g1;
+            self.events.g_prev[i] = g1;
         }
         found.sort_by(|a, b| (self.dir * a.0).total_cmp(&(self.dir * b.0)));
         for (te, i) in found {
-            let x = horner(&self.dense, (te - self.t) / h);
-            self.hits.push(EventHit {
+            let x = horner(&self.output.dense, (te - self.t) / h);
+            self.events.hits.push(EventHit {
                 index: i,
                 t: te,
                 x: x.clone(),

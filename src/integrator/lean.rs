@@ -47,14 +47,14 @@ where
 {
     /// Whether [`run_lean`](Self::run_lean) applies.
     pub(super) fn is_lean(&self) -> bool {
-        self.adaptive
+        self.control.adaptive
             && !self.done
-            && !self.keep_dense
-            && self.watch.is_none()
+            && !self.output.keep_dense
+            && self.control.watch.is_none()
             && self.problem.events.is_empty()
-            && self.until.is_none()
-            && self.stop_idx == self.stops.len()
-            && self.t_end.is_finite()
+            && self.stops.until.is_none()
+            && self.stops.idx == self.stops.list.len()
+            && self.stops.t_end.is_finite()
     }
 
     /// Step to `t_end`, pushing every accepted step; the state afterwards is what the
@@ -63,22 +63,22 @@ where
     /// and writes them back before every exit and every call that reads them.
     pub(super) fn run_lean(&mut self, mut keep: impl FnMut(f64, &nalgebra::OVector<f64, D>)) -> Result<()> {
         let t0 = self.problem.t0;
-        let t_end = self.t_end;
+        let t_end = self.stops.t_end;
         let end_tau = t_end - t0;
-        let (dir, h_max, max_steps) = (self.dir, self.h_max, self.max_steps);
-        let (mut h_abs, mut tau, mut t) = (self.h.abs(), self.tau, self.t);
-        let (mut attempts, mut last_rejected) = (self.attempts, self.last_rejected);
+        let (dir, h_max, max_steps) = (self.dir, self.control.h_max, self.control.max_steps);
+        let (mut h_abs, mut tau, mut t) = (self.control.h.abs(), self.tau, self.t);
+        let (mut attempts, mut last_rejected) = (self.control.attempts, self.control.last_rejected);
         let (mut accepted, mut rejected) = (0u64, 0u64);
         let mut failures = 0;
         // the smallest step `t − t0 = tau` still resolves: 10 ulp of tau
         let mut tiny = 10.0 * f64::EPSILON * tau.abs();
         macro_rules! sync {
             () => {
-                self.h = h_abs;
+                self.control.h = h_abs;
                 self.tau = tau;
                 self.t = t;
-                self.attempts = attempts;
-                self.last_rejected = last_rejected;
+                self.control.attempts = attempts;
+                self.control.last_rejected = last_rejected;
                 self.f.stats.accepted += accepted;
                 self.f.stats.rejected += rejected;
             };
@@ -115,7 +115,7 @@ where
                     x: &self.x,
                     h,
                     x_new: &mut self.x_new,
-                    w: &self.w,
+                    w: &self.control.w,
                     adaptive: true,
                 },
             )?;
@@ -124,7 +124,7 @@ where
                     sync!();
                     (accepted, rejected) = (0, 0);
                     self.retry(why, h, &mut failures)?;
-                    (h_abs, last_rejected) = (self.h.abs(), self.last_rejected);
+                    (h_abs, last_rejected) = (self.control.h.abs(), self.control.last_rejected);
                     continue;
                 }
                 Outcome::Done { err } => err,
@@ -133,7 +133,7 @@ where
                 sync!();
                 (accepted, rejected) = (0, 0);
                 self.reject_non_finite(h, &mut failures)?;
-                (h_abs, last_rejected) = (self.h.abs(), self.last_rejected);
+                (h_abs, last_rejected) = (self.control.h.abs(), self.control.last_rejected);
                 continue;
             }
             if err > 1.0 {
@@ -142,7 +142,7 @@ where
                 last_rejected = true;
                 continue;
             }
-            if self.crossing_test
+            if self.facts.crossing_test
                 && let Some(fac) = self.crossing_factor(t, h)
             {
                 rejected += 1;
@@ -151,7 +151,7 @@ where
                 continue;
             }
             if failures > 0 {
-                self.non_finite_trial = None;
+                self.control.non_finite_trial = None;
             }
             failures = 0;
             accepted += 1;
@@ -163,7 +163,7 @@ where
             self.check_stiffness(h, t_new);
             self.stepper.accept();
             if let Some((to, reason)) = self.stepper.switched() {
-                self.switches.push(super::Switch { t: t_new, to, reason });
+                self.output.switches.push(super::Switch { t: t_new, to, reason });
             }
             // a copy, not a swap: x_new is overwritten by the next attempt anyway
             self.x.copy_from(&self.x_new);
@@ -190,14 +190,14 @@ where
     /// an exact flow, one step per interval) of a method that never retries a step, with
     /// nothing to stop for but the breakpoints and `t_end`.
     pub(super) fn is_lean_fixed(&self) -> bool {
-        !self.adaptive
+        !self.control.adaptive
             && !self.done
-            && !self.keep_dense
+            && !self.output.keep_dense
             && self.problem.events.is_empty()
-            && self.until.is_none()
-            && self.sub_h.is_none()
-            && self.t_end.is_finite()
-            && self.never_retries
+            && self.stops.until.is_none()
+            && self.stops.sub_h.is_none()
+            && self.stops.t_end.is_finite()
+            && self.facts.never_retries
             && self.times_bounded()
     }
 
@@ -207,10 +207,10 @@ where
     /// (times near `f64::MAX` take the general path, which reports the overflow).
     fn times_bounded(&self) -> bool {
         const BOUND: f64 = f64::MAX / 8.0;
-        [self.problem.t0, self.t, self.t_end]
+        [self.problem.t0, self.t, self.stops.t_end]
             .into_iter()
-            .chain(self.stops.first().copied())
-            .chain(self.stops.last().copied())
+            .chain(self.stops.list.first().copied())
+            .chain(self.stops.list.last().copied())
             .all(|v| v.abs() < BOUND)
     }
 
@@ -223,7 +223,7 @@ where
         // (a loop of its own, without the grid arithmetic)
         // and when the stops are a control log's own times (forwards, no breakpoints),
         // a loop that opens the next row at every stop, with `dir = 1` known
-        let rows = self.stops_from.is_some() && self.problem.controls.is_some();
+        let rows = self.stops.from.is_some() && self.problem.controls.is_some();
         // the rows loop replaces the held row at every stop without a test for owned
         // inputs: until a row is held again (after `set_inputs`, which holds owned
         // values), the general step takes the run, keeping what `solve` keeps (no dense
@@ -235,7 +235,7 @@ where
             }
         }
         let all = usize::MAX;
-        match (self.fixed_h.is_infinite(), rows) {
+        match (self.stops.fixed_h.is_infinite(), rows) {
             (true, true) => return self.run_lean_fixed_with::<true, true, _>(keep, all).map(drop),
             (true, false) => return self.run_lean_fixed_with::<true, false, _>(keep, all).map(drop),
             (false, _) => {}
@@ -247,10 +247,10 @@ where
         // stay off the grid (so that a log at another rate costs a scan per 2048 stops).
         let mut off = MIN_RUN;
         while !self.done {
-            let from = self.stop_idx;
+            let from = self.stops.idx;
             let run = self.on_grid_run(CHUNK);
             // (a short run: only at the end of the log, where nothing follows it)
-            if run >= MIN_RUN || from + run > self.stops.len() {
+            if run >= MIN_RUN || from + run > self.stops.list.len() {
                 off = MIN_RUN;
                 let bound = from + run;
                 keep = match rows {
@@ -277,20 +277,20 @@ where
     /// consecutive grid points below 2⁵⁰ are at least `3h/4` apart; counts that far
     /// take the grid loop.) In blocks of 8, without a branch per stop.
     fn on_grid_run(&self, limit: usize) -> usize {
-        let (t0, fixed_h) = (self.problem.t0, self.fixed_h);
+        let (t0, fixed_h) = (self.problem.t0, self.stops.fixed_h);
         let signed_h = self.dir * fixed_h;
-        let tol = self.grid_tol;
-        let k0 = self.grid_k + 1;
+        let tol = self.stops.grid_tol;
+        let k0 = self.stops.grid_k + 1;
         if k0.saturating_add(limit as u64) >= 1 << 50 {
             return 0;
         }
-        let rest = self.stops.get(self.stop_idx..).unwrap_or_default();
+        let rest = self.stops.list.get(self.stops.idx..).unwrap_or_default();
         // (a first stop where the run stands is landed on without a step)
-        if rest.first().copied().unwrap_or(self.t_end) - t0 == self.tau {
+        if rest.first().copied().unwrap_or(self.stops.t_end) - t0 == self.tau {
             return 0;
         }
         let n = rest.len().min(limit);
-        let on = |i: usize, s: f64| ((s - t0) - super::grid_point(self.grid_k + i as u64, signed_h)).abs() <= tol;
+        let on = |i: usize, s: f64| ((s - t0) - super::grid_point(self.stops.grid_k + i as u64, signed_h)).abs() <= tol;
         let mut i = 0;
         for block in rest[..n].chunks_exact(8) {
             // (`k + j` for `j < 8` exact: every count here is below 2⁵³)
@@ -307,7 +307,7 @@ where
         while i < n && on(i, rest[i]) {
             i += 1;
         }
-        if i == rest.len() && i < limit && on(i, self.t_end) {
+        if i == rest.len() && i < limit && on(i, self.stops.t_end) {
             i += 1;
         }
         i
@@ -344,20 +344,20 @@ where
     ) -> Result<K> {
         let t0 = self.problem.t0;
         let dir = if ROWS { 1.0 } else { self.dir };
-        let (fixed_h, max_steps, grid_tol) = (self.fixed_h, self.max_steps, self.grid_tol);
+        let (fixed_h, max_steps, grid_tol) = (self.stops.fixed_h, self.control.max_steps, self.stops.grid_tol);
         let signed_h = dir * fixed_h;
-        let t_end = self.t_end;
+        let t_end = self.stops.t_end;
         let problem = self.problem;
         let controls = problem.controls.as_ref();
         // stop `i` opens interval `lo + i` (`times[lo + i] = t < times[lo + i + 1]`: what
         // the search finds)
-        let lo = self.stops_from.unwrap_or(0);
+        let lo = self.stops.from.unwrap_or(0);
         // a log's stops are its own times `lo..lo + n_stops` (borrowed for 'p, not through
         // `self`), with its rows cut to the same length: the row of a stop passed is in
         // bounds once `stop_idx ≤ n_stops` is known
         let (all_stops, all_rows) = match controls {
             Some(c) if ROWS => {
-                let n = self.stops.len();
+                let n = self.stops.list.len();
                 let times = c.times().get(lo..lo + n).unwrap_or_default();
                 let rows = c.rows().get(lo..).unwrap_or_default();
                 let n = times.len().min(rows.len());
@@ -365,8 +365,8 @@ where
             }
             _ => (&[][..], &[][..]),
         };
-        let n_all = if ROWS { all_stops.len() } else { self.stops.len() };
-        debug_assert!(!ROWS || all_stops == &self.stops[..]);
+        let n_all = if ROWS { all_stops.len() } else { self.stops.list.len() };
+        debug_assert!(!ROWS || all_stops == &self.stops.list[..]);
         // this call's stops: those before `bound − 1`, the last it arrives at (`t_end` at
         // `n_all`), after which it returns (a pause, when the run goes on)
         let n_stops = bound.saturating_sub(1).min(n_all);
@@ -375,7 +375,11 @@ where
         } else {
             (&[][..], &[][..])
         };
-        let last_stop = if n_stops < n_all { self.stops[n_stops] } else { t_end };
+        let last_stop = if n_stops < n_all {
+            self.stops.list[n_stops]
+        } else {
+            t_end
+        };
         // the stop after `i` passed (`last_stop` after the last of this call's)
         macro_rules! stop_at {
             ($i:expr) => {
@@ -386,30 +390,30 @@ where
                         None => cold(last_stop),
                     }
                 } else {
-                    match self.stops.get($i) {
+                    match self.stops.list.get($i) {
                         Some(&s) if $i < n_stops => s,
                         _ => last_stop,
                     }
                 }
             };
         }
-        let (mut t, mut tau, mut attempts) = (self.t, self.tau, self.attempts);
-        let (mut stop_idx, mut grid_k) = (self.stop_idx, self.grid_k);
+        let (mut t, mut tau, mut attempts) = (self.t, self.tau, self.control.attempts);
+        let (mut stop_idx, mut grid_k) = (self.stops.idx, self.stops.grid_k);
         let mut accepted = 0u64;
         // (a log's row index is written back on exit only: every stop passed since
         // `entry` opened interval `lo + stop_idx − 1`)
-        let entry = self.stop_idx;
+        let entry = self.stops.idx;
         macro_rules! sync {
             () => {
                 self.t = t;
                 self.tau = tau;
-                self.attempts = attempts;
-                self.stop_idx = stop_idx;
-                self.grid_k = grid_k;
+                self.control.attempts = attempts;
+                self.stops.idx = stop_idx;
+                self.stops.grid_k = grid_k;
                 self.f.stats.accepted += std::mem::take(&mut accepted);
                 // (not for the arrival at t_end, as `arrive`, which stops there)
                 if ROWS && stop_idx.min(n_all) > entry {
-                    self.segment = Some(lo + stop_idx.min(n_all) - 1);
+                    self.stops.segment = Some(lo + stop_idx.min(n_all) - 1);
                 }
             };
         }
@@ -453,10 +457,10 @@ where
                     self.land_without_step(stop);
                     keep.keep(self.t, &self.x);
                     // (past this call's last stop: back to the caller, which looks again)
-                    if self.done || self.stop_idx > n_stops {
+                    if self.done || self.stops.idx > n_stops {
                         return Ok(keep);
                     }
-                    (t, attempts, stop_idx) = (self.t, self.attempts, self.stop_idx);
+                    (t, attempts, stop_idx) = (self.t, self.control.attempts, self.stops.idx);
                     stop = stop_at!(stop_idx);
                     stop_tau = stop - t0;
                     limit!(false);
@@ -467,7 +471,7 @@ where
                 attempts += 1 - $pending;
                 let outcome = self
                     .stepper
-                    .step(&mut self.f, Step { t, x: &self.$src, h, x_new: &mut self.$dst, w: &self.w, adaptive: false });
+                    .step(&mut self.f, Step { t, x: &self.$src, h, x_new: &mut self.$dst, w: &self.control.w, adaptive: false });
                 let err = match outcome {
                     Ok(Outcome::Done { err }) => err,
                     // never_retries: a retry is a method's own error
@@ -493,7 +497,7 @@ where
                 accepted += 1;
                 self.stepper.accept();
                 if let Some((to, reason)) = self.stepper.switched() {
-                    self.switches.push(super::Switch { t: target, to, reason });
+                    self.output.switches.push(super::Switch { t: target, to, reason });
                 }
                 t = target;
                 tau = target_tau;
@@ -512,10 +516,10 @@ where
                     self.f
                         .replace_row($rows.get(stop_idx - 1).map_or(&[], |r| r.as_slice()));
                 } else if let Some(c) = controls
-                    && let Some(k) = c.segment_near(t, dir, self.segment)
-                    && Some(k) != self.segment
+                    && let Some(k) = c.segment_near(t, dir, self.stops.segment)
+                    && Some(k) != self.stops.segment
                 {
-                    self.segment = Some(k);
+                    self.stops.segment = Some(k);
                     self.f.hold_row(c.values(k).unwrap_or_default());
                 }
                 self.stepper.reset();

@@ -2,19 +2,29 @@
 //! errors, for any [`Method`]. It never asks which method it holds.
 
 mod checks;
+mod event_watch;
 mod lean;
+mod output;
 pub(crate) mod save;
+mod step_control;
+mod stiffness_watch;
+mod stops;
 
 use crate::error::{Error, Result};
-use crate::methods::step_size::{Controller, Weights, initial_step};
+use crate::methods::step_size::initial_step;
 use crate::methods::{Failure, Method, Outcome, Step, Stepper};
 use crate::model::Stats;
 use crate::model::{Eval, System};
 use crate::problem::Problem;
-use crate::problem::options::{Options, Save, StepSize};
-use crate::problem::solution::{DenseSegment, EventHit, Solution, Stiffness, Switch};
+use crate::problem::options::{Options, StepSize};
+use crate::problem::solution::{DenseSegment, Solution, Stiffness, Switch};
+use event_watch::EventWatch;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
+use output::Output;
+use step_control::StepControl;
+use stiffness_watch::StiffnessWatch;
+use stops::Stops;
 
 /// Integrates a [`Problem`] one accepted step at a time.
 ///
@@ -33,14 +43,11 @@ where
     DefaultAllocator: Allocator<D>,
 {
     problem: &'p Problem<'a, D, S>,
+    /// The model, counted and checked.
     f: Eval<'p, D, S>,
+    /// The method's run, and what the method said of itself once.
     stepper: M::Stepper,
-    /// The method's name, and whether the crossing test applies to it and it never
-    /// retries a step ([`Method`]'s answers, asked once).
-    method_name: &'static str,
-    crossing_test: bool,
-    never_retries: bool,
-    w: Weights<D>,
+    facts: Facts,
     /// Current time as reported (a stop's own value when one was landed on).
     t: f64,
     /// Current time measured from `t0`: steps advance this, so that steps far below
@@ -49,57 +56,27 @@ where
     x: OVector<f64, D>,
     x_new: OVector<f64, D>,
     dir: f64,
-    adaptive: bool,
-    fixed_h: f64,
-    /// How near a grid point a stop counts as on it ([`grid_tol`]).
-    grid_tol: f64,
-    grid_k: u64,
-    sub_h: Option<f64>,
-    /// Breakpoints strictly inside the span, in the direction of travel; `t_end` is the
-    /// stop after the last of them (kept apart so that a plain run allocates nothing here);
-    /// a control log's own times, borrowed, when nothing else is merged in.
-    stops: std::borrow::Cow<'p, [f64]>,
-    /// `Some(lo)` when `stops` are the control times `lo..` (so stop `i` opens interval
-    /// `lo + i`).
-    stops_from: Option<usize>,
-    t_end: f64,
-    stop_idx: usize,
-    /// A caller's temporary stop ([`Integrator::step_until`]).
-    until: Option<f64>,
-    h: f64,
-    controller: Controller,
-    last_rejected: bool,
-    attempts: usize,
-    max_steps: usize,
-    h_max: f64,
-    max_failures: usize,
-    /// Why the last implicit attempt failed (current while the step's failure count is
-    /// non-zero).
-    last_failure: Option<Failure>,
-    /// Why the last trial step since the last accepted one was rejected as non-finite
-    /// (adaptive runs): the error reported if `h` then shrinks to nothing.
-    non_finite_trial: Option<Error>,
-    /// Work space of the crossing test ([`Integrator::crossing_factor`]): the crossing
-    /// state and `f` there, made at its first use.
-    probe: Option<(OVector<f64, D>, OVector<f64, D>)>,
-    segment: Option<usize>,
-    keep_dense: bool,
-    /// Whether [`solve`](Self::solve) stores the dense segments (`Options::dense` only).
-    store_dense: bool,
-    save: Save,
-    dense: Vec<OVector<f64, D>>,
-    last_step: (f64, f64, f64),
-    g_prev: Vec<f64>,
-    hits: Vec<EventHit<D>>,
-    stiff_every: Option<usize>,
-    stiff_count: (u32, u32),
-    stiff_countdown: usize,
-    stiffness: Option<Stiffness>,
-    switches: Vec<Switch>,
-    /// The largest error estimate of the components outside the error control an
-    /// accepted step may have ([`watch_uncontrolled`](Self::watch_uncontrolled)).
-    watch: Option<f64>,
+    /// Breakpoints, `t_end`, the fixed-step grid and the control interval.
+    stops: Stops<'p>,
+    /// Tolerances, the step size and its controller, failures and limits.
+    control: StepControl<D>,
+    /// What the run keeps: dense polynomials, saved states, switches.
+    output: Output<D>,
+    /// Event functions' last values and the occurrences found.
+    events: EventWatch<D>,
+    /// DOPRI5's stiffness test.
+    stiff: StiffnessWatch,
     done: bool,
+}
+
+/// What a [`Method`] says of itself, asked once when the run starts.
+#[derive(Debug, Clone, Copy)]
+struct Facts {
+    name: &'static str,
+    /// [`Method::crossing_test`].
+    crossing_test: bool,
+    /// [`Method::never_retries`].
+    never_retries: bool,
 }
 
 impl<'p, 'a, D: Dim, S: System<D>, M: Method<D>> Integrator<'p, 'a, D, S, M>
@@ -131,93 +108,8 @@ where
             return Err(Error::invalid("x0", format!("component {i} is {}", x0[i])));
         }
         let dir = (t_end - t0).signum();
-        let (r, _) = x0.shape_generic();
-        let mut w = Weights::new(
-            opts.rtol.expand("rtol", r)?,
-            opts.atol.expand("atol", r)?,
-            match opts.error_components {
-                None => x0.len(),
-                Some(m) if (1..=x0.len()).contains(&m) => m,
-                Some(m) => {
-                    return Err(Error::invalid(
-                        "error_components",
-                        format!("{m} for a state of {} components (1 to {} allowed)", x0.len(), x0.len()),
-                    ));
-                }
-            },
-        );
-        if (0..x0.len()).any(|i| w.rtol[i] == 0.0 && w.atol[i] == 0.0) {
-            return Err(Error::invalid("atol", "rtol and atol are both zero for a component"));
-        }
-        if method.tightens_loose_tolerances() {
-            w.tighten_loose();
-        }
-        // inputs
-        let n_in = problem.system.inputs();
-        let (segment, u) = match &problem.controls {
-            None if problem.held.is_some() => {
-                let u = problem.held.clone().unwrap_or_default();
-                check_inputs(&u, n_in)?;
-                (None, u.into())
-            }
-            None if n_in > 0 => {
-                return Err(Error::invalid(
-                    "controls",
-                    format!("the model reads {n_in} inputs but no controls were given"),
-                ));
-            }
-            None => (None, Vec::new().into()),
-            Some(_) if problem.held.is_some() => {
-                return Err(Error::invalid(
-                    "controls",
-                    "both a control schedule and held inputs were given",
-                ));
-            }
-            Some(c) => {
-                if c.width() != n_in {
-                    return Err(Error::invalid(
-                        "controls",
-                        format!("{} inputs per sample, the model reads {n_in}", c.width()),
-                    ));
-                }
-                let k = c.segment(t0, dir).ok_or_else(|| {
-                    Error::invalid(
-                        "controls",
-                        format!("t0 = {t0} is not after the first control time {}", c.times()[0]),
-                    )
-                })?;
-                // (the row borrowed, as at every breakpoint after)
-                (Some(k), std::borrow::Cow::Borrowed(c.values(k).unwrap_or_default()))
-            }
-        };
-        // stops: breakpoints strictly inside the span, in the direction of travel (then t_end)
-        let inside = |b: f64| dir * (b - t0) > 0.0 && dir * (t_end - b) > 0.0;
-        let mut stops: Vec<f64> = opts.breakpoints.iter().copied().filter(|&b| inside(b)).collect();
-        let mut stops_from = None;
-        let stops: std::borrow::Cow<'p, [f64]> = match &problem.controls {
-            // forwards with no breakpoints of its own, the stops are the control times
-            // inside the span: strictly increasing, and (b − t0 and t_end − b being
-            // monotone in b) one contiguous run of them, so a long log is borrowed
-            Some(c) if stops.is_empty() && dir > 0.0 => {
-                let times = c.times();
-                let lo = times.partition_point(|&b| b - t0 <= 0.0);
-                let hi = times.partition_point(|&b| t_end - b > 0.0).max(lo);
-                stops_from = Some(lo);
-                std::borrow::Cow::Borrowed(&times[lo..hi])
-            }
-            controls => {
-                if let Some(c) = controls {
-                    stops.extend(c.times().iter().copied().filter(|&b| inside(b)));
-                }
-                // (a control log's times are sorted already: a long log skips the sort)
-                if !stops.is_sorted_by(|a, b| dir * a < dir * b) {
-                    stops.sort_by(|a, b| (dir * a).total_cmp(&(dir * b)));
-                }
-                stops.dedup();
-                std::borrow::Cow::Owned(stops)
-            }
-        };
-
+        let w = step_control::weights(opts, x0, method.tightens_loose_tolerances())?;
+        let (segment, u) = stops::held_at_start(problem, dir)?;
         let mut f = Eval::new(&problem.system, u);
         f.sparse.choice = opts.linear_solver;
         let (method_name, error_order) = (method.name(), method.error_order());
@@ -263,95 +155,27 @@ where
                 }
             };
         }
-        if let Save::At(ts) = &opts.save {
-            let inside = |t: f64| dir * (t - t0) >= 0.0 && dir * (t_end - t) >= 0.0;
-            if let Some(t) = ts.iter().find(|t| !inside(**t)) {
-                return Err(Error::invalid(
-                    "save",
-                    format!(
-                        "output time {} is outside the span ({}, {})",
-                        brief(*t),
-                        brief(t0),
-                        brief(t_end)
-                    ),
-                ));
-            }
-            if let Some(w) = ts.windows(2).find(|w| dir * (w[1] - w[0]) <= 0.0) {
-                return Err(Error::invalid(
-                    "save",
-                    format!(
-                        "output times must run in the direction of integration: {} then {}",
-                        brief(w[0]),
-                        brief(w[1])
-                    ),
-                ));
-            }
-        }
-        let at_times = save::needs_dense(&opts.save);
-        let keep_dense = opts.dense || !problem.events.is_empty() || at_times;
-        // the polynomials are computed for events and output times, but kept in the
-        // solution only when asked (`Options::dense`)
-        let store_dense = opts.dense;
-        let dense = if keep_dense {
-            vec![x0.clone(); stepper.dense_len()]
-        } else {
-            Vec::new()
-        };
-        let mut g_prev = Vec::with_capacity(problem.events.len());
-        for (index, e) in problem.events.iter().enumerate() {
-            let g = (e.g)(t0, x0);
-            if g.is_nan() {
-                return Err(Error::EventNaN { index, t: t0 });
-            }
-            g_prev.push(g);
-        }
+        let output = Output::new(opts, problem, x0, dir, stepper.dense_len())?;
+        let events = EventWatch::new(problem, t0, x0)?;
         Ok(Integrator {
             problem,
-            controller,
             f,
             stepper,
-            method_name,
-            crossing_test,
-            never_retries,
-            w,
+            facts: Facts {
+                name: method_name,
+                crossing_test,
+                never_retries,
+            },
             t: t0,
             tau: 0.0,
             x: x0.clone(),
             x_new: x0.clone(),
             dir,
-            adaptive,
-            fixed_h,
-            grid_tol: grid_tol(fixed_h, t0, problem.t_end),
-            grid_k: 0,
-            sub_h: None,
-            stops,
-            stops_from,
-            t_end,
-            stop_idx: 0,
-            until: None,
-            h,
-            last_rejected: false,
-            attempts: 0,
-            max_steps: opts.max_steps,
-            h_max: opts.h_max,
-            max_failures: opts.max_step_failures,
-            last_failure: None,
-            non_finite_trial: None,
-            probe: None,
-            segment,
-            keep_dense,
-            store_dense,
-            save: opts.save.clone(),
-            dense,
-            last_step: (t0, 0.0, t0),
-            g_prev,
-            hits: Vec::new(),
-            stiff_every: opts.stiffness_check,
-            stiff_count: (0, 0),
-            stiff_countdown: opts.stiffness_check.unwrap_or(0),
-            stiffness: None,
-            switches: Vec::new(),
-            watch: None,
+            stops: Stops::new(problem, opts, dir, segment, fixed_h),
+            control: StepControl::new(w, controller, adaptive, h, opts),
+            output,
+            events,
+            stiff: StiffnessWatch::new(opts),
             done: false,
         })
     }
@@ -363,8 +187,8 @@ where
     /// are integrated on the steps chosen for `x` alone. Such a run takes the general
     /// loop (the lean ones do not watch).
     pub(crate) fn watch_uncontrolled(&mut self, limit: f64, column_scales: Vec<f64>) {
-        self.watch = Some(limit);
-        self.w.set_columns(column_scales);
+        self.control.watch = Some(limit);
+        self.control.w.set_columns(column_scales);
     }
 
     /// Current time.
@@ -386,7 +210,7 @@ where
     }
     /// Where DOPRI5's stiffness test fired so far.
     pub fn stiffness(&self) -> Option<Stiffness> {
-        self.stiffness
+        self.stiff.verdict
     }
     /// The direction of integration, `±1`.
     pub(crate) fn direction(&self) -> f64 {
@@ -398,7 +222,7 @@ where
     }
     /// Whether the steps are adaptive (error-controlled).
     pub(crate) fn is_adaptive(&self) -> bool {
-        self.adaptive
+        self.control.adaptive
     }
     /// The inputs held now: those the next step uses.
     pub(crate) fn held_inputs(&self) -> &[f64] {
@@ -407,7 +231,7 @@ where
     /// The last accepted step of [`step`](Self::step): `(t, h, t + h)` as the method took
     /// it (`t + h` where it landed).
     pub(crate) fn last_step(&self) -> (f64, f64, f64) {
-        self.last_step
+        self.output.last_step
     }
     /// Whether `t_end` (or a terminal event) has been reached.
     pub fn is_done(&self) -> bool {
@@ -415,7 +239,7 @@ where
     }
     /// The step size the controller proposes next (adaptive mode).
     pub fn proposed_step(&self) -> f64 {
-        self.dir * self.h.abs()
+        self.dir * self.control.h.abs()
     }
 
     /// Switch the held inputs at the current time: a jump, so the method drops what it
@@ -474,7 +298,7 @@ where
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (1.7e12, f64::INFINITY)); // epoch milliseconds
-    /// let mut it = p.integrator(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
+    /// let mut it = p.integrator(Rk45, &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
     /// while !it.reached(1.7e12 + 1.0) {
     ///     it.step_until(1.7e12 + 1.0).unwrap();
     /// }
@@ -496,9 +320,9 @@ where
                 ),
             ));
         }
-        self.until = Some(t_stop);
+        self.stops.until = Some(t_stop);
         let r = self.step();
-        self.until = None;
+        self.stops.until = None;
         r
     }
 
@@ -506,7 +330,7 @@ where
     /// the caller's `until` when it comes first.
     fn next_stop(&self) -> f64 {
         let stop = self.stop();
-        match self.until {
+        match self.stops.until {
             Some(u) if self.dir * (u - stop) < 0.0 => u,
             _ => stop,
         }
@@ -516,21 +340,21 @@ where
     /// time. Sizes are differences of times measured from `t0` (`tau`).
     fn next_h(&self, stop: f64) -> (f64, Option<(f64, f64)>) {
         let stop_tau = stop - self.problem.t0;
-        if self.adaptive {
-            let h = self.dir * self.h.abs().min(self.h_max);
+        if self.control.adaptive {
+            let h = self.dir * self.control.h.abs().min(self.control.h_max);
             if self.dir * (self.tau + 1.01 * h - stop_tau) >= 0.0 {
                 return (stop_tau - self.tau, Some((stop, stop_tau)));
             }
             return (h, None);
         }
-        let grid = grid_point(self.grid_k, self.dir * self.fixed_h);
-        let (target, target_tau) = if self.dir * (grid - stop_tau) >= -self.grid_tol {
+        let grid = grid_point(self.stops.grid_k, self.dir * self.stops.fixed_h);
+        let (target, target_tau) = if self.dir * (grid - stop_tau) >= -self.stops.grid_tol {
             (stop, stop_tau)
         } else {
             (self.problem.t0 + grid, grid)
         };
         let h = target_tau - self.tau;
-        match self.sub_h {
+        match self.stops.sub_h {
             Some(hs) if hs.abs() < h.abs() => (hs, None),
             _ => (h, Some((target, target_tau))),
         }
@@ -542,7 +366,7 @@ where
             return Ok(None);
         }
         let stop = self.next_stop();
-        if stop.is_infinite() && !self.adaptive && self.fixed_h.is_infinite() {
+        if stop.is_infinite() && !self.control.adaptive && self.stops.fixed_h.is_infinite() {
             return Err(Error::invalid(
                 "span",
                 "an open-ended span needs a finite stop ahead: use step_until",
@@ -550,10 +374,10 @@ where
         }
         let mut failures = 0;
         loop {
-            if self.attempts >= self.max_steps {
+            if self.control.attempts >= self.control.max_steps {
                 return Err(Error::MaxSteps {
                     t: self.t,
-                    steps: self.attempts,
+                    steps: self.control.attempts,
                 });
             }
             let (h, landing) = self.next_h(stop);
@@ -569,9 +393,9 @@ where
             if !(resolvable && h.abs() > 0.0 && h.abs() < f64::INFINITY) {
                 return Err(self.underflow(h, failures));
             }
-            self.attempts += 1;
-            if self.watch.is_some() {
-                self.w.clear_uncontrolled();
+            self.control.attempts += 1;
+            if self.control.watch.is_some() {
+                self.control.w.clear_uncontrolled();
             }
             let outcome = self.stepper.step(
                 &mut self.f,
@@ -580,8 +404,8 @@ where
                     x: &self.x,
                     h,
                     x_new: &mut self.x_new,
-                    w: &self.w,
-                    adaptive: self.adaptive,
+                    w: &self.control.w,
+                    adaptive: self.control.adaptive,
                 },
             )?;
             let err = match outcome {
@@ -597,25 +421,25 @@ where
                 self.reject_non_finite(h, &mut failures)?;
                 continue;
             }
-            if self.adaptive && err > 1.0 {
+            if self.control.adaptive && err > 1.0 {
                 self.reject(h, err);
                 continue;
             }
-            if self.adaptive
-                && self.crossing_test
+            if self.control.adaptive
+                && self.facts.crossing_test
                 && let Some(fac) = self.crossing_factor(self.t, h)
             {
                 self.reject_by(h, fac);
                 continue;
             }
-            if let Some(limit) = self.watch
-                && self.adaptive
-                && self.w.uncontrolled() > limit
+            if let Some(limit) = self.control.watch
+                && self.control.adaptive
+                && self.control.w.uncontrolled() > limit
             {
                 return Err(Error::SensitivityUnresolved {
                     t: self.t,
                     h,
-                    ratio: self.w.uncontrolled(),
+                    ratio: self.control.w.uncontrolled(),
                 });
             }
             let (t_new, tau_new) = landing.unwrap_or((self.problem.t0 + (self.tau + h), self.tau + h));
@@ -630,17 +454,17 @@ where
         self.f.stats.rejected += 1;
         *failures += 1;
         // a fixed step at which I − hJ is singular has no implicit Euler map
-        let singular_fixed = !self.adaptive && why == Failure::Singular;
-        self.last_failure = Some(why);
-        self.non_finite_trial = None;
-        if *failures > self.max_failures || singular_fixed {
+        let singular_fixed = !self.control.adaptive && why == Failure::Singular;
+        self.control.last_failure = Some(why);
+        self.control.non_finite_trial = None;
+        if *failures > self.control.max_failures || singular_fixed {
             return Err(self.failure_error(why, h));
         }
-        if self.adaptive {
-            self.h = 0.5 * h.abs();
-            self.last_rejected = true;
+        if self.control.adaptive {
+            self.control.h = 0.5 * h.abs();
+            self.control.last_rejected = true;
         } else {
-            self.sub_h = Some(0.5 * h);
+            self.stops.sub_h = Some(0.5 * h);
         }
         Ok(())
     }
@@ -669,11 +493,11 @@ where
     #[cold]
     fn underflow(&self, h: f64, failures: usize) -> Error {
         if failures > 0
-            && let Some(e) = &self.non_finite_trial
+            && let Some(e) = &self.control.non_finite_trial
         {
             return e.clone();
         }
-        match self.last_failure {
+        match self.control.last_failure {
             Some(why @ Failure::NonFinite { .. }) if failures > 0 => self.failure_error(why, h),
             _ => Error::StepSizeUnderflow { t: self.t, h },
         }
@@ -699,8 +523,8 @@ where
     #[inline]
     fn reject_by(&mut self, h: f64, fac: f64) {
         self.f.stats.rejected += 1;
-        self.h = h.abs() * fac;
-        self.last_rejected = true;
+        self.control.h = h.abs() * fac;
+        self.control.last_rejected = true;
     }
 
     /// The step `h` from `(t, x)` gave a non-finite `x_new` or error estimate. With a
@@ -712,7 +536,7 @@ where
     /// last non-finite trial (see [`underflow`](Self::underflow)).
     #[cold]
     fn reject_non_finite(&mut self, h: f64, failures: &mut usize) -> Result<()> {
-        if self.f.fault.is_some() || !self.adaptive {
+        if self.f.fault.is_some() || !self.control.adaptive {
             return Err(self.non_finite(h));
         }
         let e = self.non_finite(h);
@@ -721,7 +545,7 @@ where
             return Err(e);
         }
         *failures += 1;
-        self.non_finite_trial = Some(e);
+        self.control.non_finite_trial = Some(e);
         self.reject_by(h, NON_FINITE_FACTOR);
         Ok(())
     }
@@ -753,7 +577,7 @@ where
         for i in 0..self.x.len() {
             let (a, b) = (self.x[i], self.x_new[i]);
             let crossed = a * b < 0.0 || (a == 0.0 && b != 0.0);
-            if crossed && b.abs() > CROSSING_NOISE * self.w.scale(i, b) {
+            if crossed && b.abs() > CROSSING_NOISE * self.control.w.scale(i, b) {
                 let theta = a / (a - b);
                 if first.is_none_or(|(_, th)| theta < th) {
                     first = Some((i, theta));
@@ -764,7 +588,10 @@ where
         // the way the step moved component i, against the way f moves it over h (h < 0 backward)
         let moved = (self.x_new[i] - self.x[i]) * h.signum();
         let fac = (0.9 * theta).clamp(0.1, 0.5);
-        let (xs, fs) = self.probe.get_or_insert_with(|| (self.x.clone(), self.x.clone()));
+        let (xs, fs) = self
+            .control
+            .probe
+            .get_or_insert_with(|| (self.x.clone(), self.x.clone()));
         // where the step starts, component i moved to zero
         xs.copy_from(&self.x);
         xs[i] = 0.0;
@@ -790,16 +617,16 @@ where
     fn reject_factor(&mut self, err: f64) -> f64 {
         match self.stepper.step_factor(false, err) {
             Some(fac) => fac,
-            None if err.is_finite() => self.controller.reject(err),
-            None => self.controller.min_factor,
+            None if err.is_finite() => self.control.controller.reject(err),
+            None => self.control.controller.min_factor,
         }
     }
 
     /// The next step size after an accepted step of size `h` with estimate `err`.
     #[inline]
     fn propose(&mut self, h: f64, err: f64, landed: bool) {
-        self.h = self.accepted_h(h, err, self.h.abs(), self.last_rejected, landed);
-        self.last_rejected = false;
+        self.control.h = self.accepted_h(h, err, self.control.h.abs(), self.control.last_rejected, landed);
+        self.control.last_rejected = false;
     }
 
     /// The step size after an accepted step `h` with estimate `err`, where `proposal`
@@ -810,7 +637,7 @@ where
     fn accepted_h(&mut self, h: f64, err: f64, proposal: f64, last_rejected: bool, landed: bool) -> f64 {
         let fac = match self.stepper.step_factor(true, err) {
             Some(fac) => fac,
-            None => self.controller.accept(err),
+            None => self.control.controller.accept(err),
         };
         let mut next = h.abs() * fac;
         if last_rejected {
@@ -826,7 +653,7 @@ where
     /// The next stop: a breakpoint, or `t_end` after the last.
     #[inline]
     fn stop(&self) -> f64 {
-        self.stops.get(self.stop_idx).copied().unwrap_or(self.t_end)
+        self.stops.list.get(self.stops.idx).copied().unwrap_or(self.stops.t_end)
     }
 
     /// Reach `stop` without a step: it is closer than `t − t0` can resolve.
@@ -842,34 +669,34 @@ where
         // arrival measured from t0: a grid point whose absolute time rounds to the stop's
         // (t0 = 1e15 resolves 0.125) is not the stop, and the next row's inputs wait
         if l == self.stop() && self.tau == l - self.problem.t0 {
-            self.attempts = 0;
-            self.stop_idx += 1;
-            if self.stop_idx > self.stops.len() {
+            self.control.attempts = 0;
+            self.stops.idx += 1;
+            if self.stops.idx > self.stops.list.len() {
                 self.done = true;
             } else {
                 self.enter_segment();
             }
-        } else if Some(l) == self.until {
-            self.attempts = 0;
+        } else if Some(l) == self.stops.until {
+            self.control.attempts = 0;
         }
     }
 
     fn accept(&mut self, h: f64, err: f64, land: Option<f64>, mut t_new: f64, tau_new: f64) -> Result<()> {
         self.f.stats.accepted += 1;
-        self.non_finite_trial = None;
-        if self.adaptive {
+        self.control.non_finite_trial = None;
+        if self.control.adaptive {
             self.check_stiffness(h, t_new);
         }
         let mut stopped = false;
-        if self.keep_dense {
+        if self.output.keep_dense {
             self.stepper
-                .dense(&mut self.f, self.t, h, &self.x, &self.x_new, &mut self.dense)?;
+                .dense(&mut self.f, self.t, h, &self.x, &self.x_new, &mut self.output.dense)?;
             stopped = self.check_events(h, &mut t_new)?;
         }
-        self.last_step = (self.t, h, t_new);
+        self.output.last_step = (self.t, h, t_new);
         self.stepper.accept();
         if let Some((to, reason)) = self.stepper.switched() {
-            self.switches.push(Switch { t: t_new, to, reason });
+            self.output.switches.push(Switch { t: t_new, to, reason });
         }
         std::mem::swap(&mut self.x, &mut self.x_new);
         self.t = t_new;
@@ -878,13 +705,13 @@ where
             self.done = true;
             return Ok(());
         }
-        if self.adaptive {
+        if self.control.adaptive {
             self.propose(h, err, land.is_some());
         } else {
-            self.sub_h = None;
-            let grid = grid_point(self.grid_k, self.dir * self.fixed_h);
-            if land.is_some() && (tau_new == grid || (tau_new - grid).abs() <= self.grid_tol) {
-                self.grid_k += 1;
+            self.stops.sub_h = None;
+            let grid = grid_point(self.stops.grid_k, self.dir * self.stops.fixed_h);
+            if land.is_some() && (tau_new == grid || (tau_new - grid).abs() <= self.stops.grid_tol) {
+                self.stops.grid_k += 1;
             }
         }
         self.arrive(land);
@@ -898,10 +725,10 @@ where
                 "an open-ended span (t_end = ±∞) has no end to solve to: drive it with step_until",
             ));
         }
-        let mut out = save::Saver::new(&self.save, self.dir, self.t, &self.x);
+        let mut out = save::Saver::new(&self.output.save, self.dir, self.t, &self.x);
         // at least one step per interval between stops (a long control log): kept states
         // grow into reserved room instead of by repeated doubling (capped at 2²⁴ up front)
-        out.reserve((self.stops.len() - self.stop_idx + 1).min(1 << 24));
+        out.reserve((self.stops.list.len() - self.stops.idx + 1).min(1 << 24));
         let mut dense = Vec::new();
         // every step kept (the default): the lean loops push directly; the end state
         // only: they keep nothing, and it is stored once, after they return `Ok` (at
@@ -926,15 +753,15 @@ where
             }
         }
         while self.step()?.is_some() {
-            let (t0, h, t1) = self.last_step;
-            let seg = self.keep_dense.then_some((t0, h, self.dense.as_slice()));
+            let (t0, h, t1) = self.output.last_step;
+            let seg = self.output.keep_dense.then_some((t0, h, self.output.dense.as_slice()));
             out.step(self.t, &self.x, seg);
-            if self.store_dense {
+            if self.output.store_dense {
                 dense.push(DenseSegment {
                     t0,
                     h,
                     t1,
-                    c: self.dense.clone(),
+                    c: self.output.dense.clone(),
                 });
             }
         }
@@ -943,10 +770,10 @@ where
             t,
             x,
             stats: self.f.stats,
-            events: std::mem::take(&mut self.hits),
-            stiffness: self.stiffness,
-            method: self.method_name,
-            switches: std::mem::take(&mut self.switches),
+            events: std::mem::take(&mut self.events.hits),
+            stiffness: self.stiff.verdict,
+            method: self.facts.name,
+            switches: std::mem::take(&mut self.output.switches),
             dense,
         })
     }

@@ -178,7 +178,7 @@ enum Mode {
 /// let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 400.0));
 /// let o = Options::default().rtol(1e-6).atol(1e-6);
 /// let auto = p.solve(Auto::default(), &o).unwrap();
-/// let rk = p.solve(Rk45::default(), &o.clone().max_steps(10_000_000)).unwrap();
+/// let rk = p.solve(Rk45, &o.clone().max_steps(10_000_000)).unwrap();
 /// assert_eq!(auto.switches[0].to, "bdf");          // stiff from the start
 /// assert!(auto.switches[0].t < 1.0);
 /// assert!(matches!(auto.switches[0].reason, SwitchReason::Stiff { h_lambda } if h_lambda > 2.0));

@@ -39,7 +39,7 @@ use nalgebra::{DMatrix, DefaultAllocator, Dim, OMatrix, OVector};
 /// // linear: x' = −50·x + 1 is integrated exactly with one step of h = 1
 /// let f = model!(|_t, x: [S; 1]| vector![x[0] * -50.0 + 1.0]);
 /// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0))
-///     .solve(ExponentialEuler::default(), &Options::default().step(StepSize::Fixed(1.0)))
+///     .solve(ExponentialEuler, &Options::default().step(StepSize::Fixed(1.0)))
 ///     .unwrap();
 /// let exact = 0.02 + 0.98 * (-50.0f64).exp();
 /// assert!((sol.last().1[0] - exact).abs() < 1e-15);

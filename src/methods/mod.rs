@@ -100,7 +100,7 @@ where
 /// ```
 /// use reckon::methods::{Method, Rk45};
 /// use nalgebra::U2;
-/// let m = Rk45::default();
+/// let m = Rk45;
 /// assert_eq!(<Rk45 as Method<U2>>::name(&m), "rk45");
 /// assert_eq!((<Rk45 as Method<U2>>::order(&m), <Rk45 as Method<U2>>::error_order(&m)), (5, Some(4)));
 /// ```

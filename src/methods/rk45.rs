@@ -95,7 +95,7 @@ use tableau::{A, C, D as DW, E};
 /// use reckon::{model, methods::Rk45, Options, Problem};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
-/// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
+/// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
 /// assert!((sol.last().1[0] - (-1.0f64).exp()).abs() < 1e-10);
 /// ```
 #[derive(Debug, Clone, Copy, Default)]

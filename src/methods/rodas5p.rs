@@ -220,7 +220,7 @@ where
 /// // `t: S` gives Rodas5P the exact ∂f/∂t = −1000 sin t by autodiff
 /// let f = model!(|t: S, x: [S; 1]| vector![(x[0] - t.cos()) * -1000.0]);
 /// let sol = Problem::new(&f, vector![1.0], (0.0, 1.0))
-///     .solve(Rodas5P::default(), &Options::default().rtol(1e-8).atol(1e-10))
+///     .solve(Rodas5P, &Options::default().rtol(1e-8).atol(1e-10))
 ///     .unwrap();
 /// // x(t) ≈ cos t + sin t/1000 up to O(1e-6)
 /// let exact = (1e6 * 1f64.cos() + 1e3 * 1f64.sin()) / (1e6 + 1.0);

@@ -31,7 +31,7 @@ pub type EventFn<'a, D> = Box<dyn Fn(f64, &OVector<f64, D>) -> f64 + 'a>;
 /// // a ball thrown up at 10 m/s: lands at t = 2·10/9.81
 /// let f = model!(|_t, x: [S; 2]| vector![x[1], S::from(-9.81)]);
 /// let ground = Event::new(|_t, x: &nalgebra::SVector<f64, 2>| x[0]).direction(Direction::Falling).terminal();
-/// let sol = Problem::new(&f, vector![0.0, 10.0], (0.0, 10.0)).event(ground).solve(Rk45::default(), &Options::default()).unwrap();
+/// let sol = Problem::new(&f, vector![0.0, 10.0], (0.0, 10.0)).event(ground).solve(Rk45, &Options::default()).unwrap();
 /// assert!((sol.last().0 - 20.0 / 9.81).abs() < 1e-12);
 /// ```
 pub struct Event<'a, D: Dim>

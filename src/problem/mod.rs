@@ -24,7 +24,7 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]); // harmonic oscillator
 /// let sol = Problem::new(&f, vector![1.0, 0.0], (0.0, std::f64::consts::PI))
-///     .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12))
+///     .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12))
 ///     .unwrap();
 /// assert!((sol.last().1[0] + 1.0).abs() < 1e-9); // cos π = −1
 /// ```

@@ -80,10 +80,10 @@ pub struct Options {
 /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
 /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
 /// let o = Options::default().rtol(1e-10).atol(1e-12); // dense output off (the default)
-/// let s = p.solve(Rk45::default(), &o.clone().save(Save::At(vec![0.5, 1.0, 1.5]))).unwrap();
+/// let s = p.solve(Rk45, &o.clone().save(Save::At(vec![0.5, 1.0, 1.5]))).unwrap();
 /// assert_eq!(s.t, [0.5, 1.0, 1.5]);
 /// assert!((s.x[1][0] - (-1.0f64).exp()).abs() < 1e-9);
-/// let e = p.solve(Rk45::default(), &o.save(Save::End)).unwrap();
+/// let e = p.solve(Rk45, &o.save(Save::End)).unwrap();
 /// assert_eq!(e.t, [0.0, 2.0]); // the start and the end
 /// ```
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -171,11 +171,11 @@ impl Options {
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
     /// assert!(!Options::default().dense);
-    /// let lean = p.solve(Rk45::default(), &Options::default()).unwrap();
+    /// let lean = p.solve(Rk45, &Options::default()).unwrap();
     /// assert!(lean.dense_segments().is_empty());
     /// assert!(matches!(lean.at(0.7), Err(Error::NoDenseOutput { t }) if t == 0.7));
     /// let o = Options::default().rtol(1e-9).atol(1e-12).dense(true);
-    /// let sol = p.solve(Rk45::default(), &o).unwrap();
+    /// let sol = p.solve(Rk45, &o).unwrap();
     /// assert!((sol.at(0.7).unwrap()[0] - (-0.7f64).exp()).abs() < 1e-8);
     /// ```
     pub fn dense(mut self, on: bool) -> Self {
@@ -196,10 +196,10 @@ impl Options {
     /// // x' = −x with a quadrature q' = x² riding along uncontrolled
     /// let f = model!(|_t, x: [S; 2]| vector![-x[0], x[0] * x[0]]);
     /// let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
-    /// let both = p.solve(Rk45::default(), &Options::default()).unwrap();
-    /// let one = p.solve(Rk45::default(), &Options::default().error_components(1)).unwrap();
+    /// let both = p.solve(Rk45, &Options::default()).unwrap();
+    /// let one = p.solve(Rk45, &Options::default().error_components(1)).unwrap();
     /// let g = model!(|_t, x: [S; 1]| vector![-x[0]]);
-    /// let alone = Problem::new(&g, vector![1.0], (0.0, 1.0)).solve(Rk45::default(), &Options::default()).unwrap();
+    /// let alone = Problem::new(&g, vector![1.0], (0.0, 1.0)).solve(Rk45, &Options::default()).unwrap();
     /// assert_eq!(one.t, alone.t); // the same steps as x alone
     /// assert!(both.t.len() >= one.t.len());
     /// assert!((one.last().1[1] - (1.0 - (-2.0f64).exp()) / 2.0).abs() < 1e-5);

@@ -165,7 +165,7 @@ where
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
     /// let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 100.0));
-    /// let s = p.solve(Rk45::default(), &Options::default().dense(false).save(Save::End)).unwrap();
+    /// let s = p.solve(Rk45, &Options::default().dense(false).save(Save::End)).unwrap();
     /// assert_eq!(s.kept_bytes(), 2 * 8 + 2 * 16); // two times, two 2-vectors
     /// ```
     pub fn kept_bytes(&self) -> usize {
@@ -182,8 +182,8 @@ where
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
-    /// assert!(p.solve(Rk45::default(), &Options::default()).unwrap().dense_segments().is_empty());
-    /// let s = p.solve(Rk45::default(), &Options::default().dense(true)).unwrap();
+    /// assert!(p.solve(Rk45, &Options::default()).unwrap().dense_segments().is_empty());
+    /// let s = p.solve(Rk45, &Options::default().dense(true)).unwrap();
     /// assert_eq!(s.dense_segments().len(), s.t.len() - 1);
     /// ```
     pub fn dense_segments(&self) -> &[DenseSegment<D>] {
@@ -201,10 +201,10 @@ where
     /// use nalgebra::vector;
     /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
     /// let p = Problem::new(&f, vector![1.0], (0.0, 2.0));
-    /// let sol = p.solve(Rk45::default(), &Options::default().rtol(1e-9).atol(1e-12).dense(true)).unwrap();
+    /// let sol = p.solve(Rk45, &Options::default().rtol(1e-9).atol(1e-12).dense(true)).unwrap();
     /// assert!((sol.at(0.7).unwrap()[0] - (-0.7f64).exp()).abs() < 1e-8); // between steps
     /// assert!(sol.at(2.5).is_err()); // outside the span
-    /// let lean = p.solve(Rk45::default(), &Options::default()).unwrap(); // dense off
+    /// let lean = p.solve(Rk45, &Options::default()).unwrap(); // dense off
     /// let e = lean.at(0.7).unwrap_err();
     /// assert_eq!(e, Error::NoDenseOutput { t: 0.7 });
     /// assert!(e.to_string().contains("Options::dense(true)"));

@@ -51,7 +51,7 @@ pub fn dead_reckon_2d(
     let span = (samples[0].0, samples[samples.len() - 1].0);
     Problem::new(model_2d(), x0, span)
         .controls(controls)
-        .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-10).dense(true))
+        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-10).dense(true))
 }
 
 /// Strapdown navigation state: attitude `R` (body → world), velocity, position.

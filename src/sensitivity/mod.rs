@@ -57,7 +57,7 @@
 //! let f = model!(|_, x: [S; 1], p: [S; 1] = [0.5]| vector![-(p[0] * x[0])]);
 //! let p = Problem::new(&f, vector![2.0], (0.0, 3.0));
 //! let o = Options::default().rtol(1e-10).atol(1e-12);
-//! let sol = sensitivity::solve(&p, Rk45::default(), &o, &SensitivityOptions::default()).unwrap();
+//! let sol = sensitivity::solve(&p, Rk45, &o, &SensitivityOptions::default()).unwrap();
 //! let e = (-1.5f64).exp();
 //! assert!((sol.last_x()[0] - 2.0 * e).abs() < 1e-9);
 //! assert!((sol.wrt_x0(sol.t.len() - 1)[(0, 0)] - e).abs() < 1e-9);
@@ -609,7 +609,7 @@ where
 }
 
 /// Integrate `problem` with its sensitivities `S = ∂x/∂(x₀, p)` (see the module's doc):
-/// `method` is any method of [`crate::methods`] (`Rk45::default()`, `Bdf::default()`, …,
+/// `method` is any method of [`crate::methods`] (`Rk45`, `Bdf::default()`, …,
 /// inferred at `Dyn`) or `Exact::new(flow)` with a [`DualFlow`].
 ///
 /// Errors: those of the solve, and [`Error::InvalidInput`] for a problem with events (the

@@ -145,11 +145,11 @@ where
     match kind {
         MethodKind::Euler => problem.solve(Euler, opts),
         MethodKind::ImplicitEuler => problem.solve(ImplicitEuler::default(), opts),
-        MethodKind::Rk45 => problem.solve(Rk45::default(), opts),
+        MethodKind::Rk45 => problem.solve(Rk45, opts),
         MethodKind::Bdf => problem.solve(Bdf::default(), opts),
-        MethodKind::Rodas5P => problem.solve(Rodas5P::default(), opts),
+        MethodKind::Rodas5P => problem.solve(Rodas5P, opts),
         MethodKind::Auto => problem.solve(Auto::default(), opts),
-        MethodKind::ExponentialEuler => problem.solve(ExponentialEuler::default(), opts),
+        MethodKind::ExponentialEuler => problem.solve(ExponentialEuler, opts),
         MethodKind::Exact => match flow {
             Some(f) => problem.solve(Exact::new(DynFlow(f)), opts),
             None => Err(Error::invalid("method", "this problem has no exact flow")),
@@ -203,11 +203,11 @@ where
     match kind {
         MethodKind::Euler => drive_method(problem, Euler, opts, visit),
         MethodKind::ImplicitEuler => drive_method(problem, ImplicitEuler::default(), opts, visit),
-        MethodKind::Rk45 => drive_method(problem, Rk45::default(), opts, visit),
+        MethodKind::Rk45 => drive_method(problem, Rk45, opts, visit),
         MethodKind::Bdf => drive_method(problem, Bdf::default(), opts, visit),
-        MethodKind::Rodas5P => drive_method(problem, Rodas5P::default(), opts, visit),
+        MethodKind::Rodas5P => drive_method(problem, Rodas5P, opts, visit),
         MethodKind::Auto => drive_method(problem, Auto::default(), opts, visit),
-        MethodKind::ExponentialEuler => drive_method(problem, ExponentialEuler::default(), opts, visit),
+        MethodKind::ExponentialEuler => drive_method(problem, ExponentialEuler, opts, visit),
         MethodKind::Exact => match flow {
             Some(f) => drive_method(problem, Exact::new(DynFlow(f)), opts, visit),
             None => Err(Error::invalid("method", "this problem has no exact flow")),
@@ -233,12 +233,12 @@ mod tests {
             let got = match k {
                 MethodKind::Euler => name(Euler),
                 MethodKind::ImplicitEuler => name(ImplicitEuler::default()),
-                MethodKind::Rk45 => name(Rk45::default()),
+                MethodKind::Rk45 => name(Rk45),
                 MethodKind::Exact => name(Exact::new(identity)),
                 MethodKind::Bdf => name(Bdf::default()),
-                MethodKind::Rodas5P => name(Rodas5P::default()),
+                MethodKind::Rodas5P => name(Rodas5P),
                 MethodKind::Auto => name(Auto::default()),
-                MethodKind::ExponentialEuler => name(ExponentialEuler::default()),
+                MethodKind::ExponentialEuler => name(ExponentialEuler),
             };
             assert_eq!(got, k.name());
             assert_eq!(k.name().parse::<MethodKind>().unwrap(), k);

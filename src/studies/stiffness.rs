@@ -45,7 +45,7 @@ pub struct StepHistory {
 /// use reckon::{studies::problems::van_der_pol, Error, Options, Problem};
 /// use nalgebra::vector;
 /// let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 2000.0));
-/// let h = history(&p, Rk45::default(), &Options::default().rtol(1e-4).atol(1e-7).max_steps(5000));
+/// let h = history(&p, Rk45, &Options::default().rtol(1e-4).atol(1e-7).max_steps(5000));
 /// assert!(matches!(h.stopped_by, Some(Error::MaxSteps { steps: 5000, .. })));
 /// // the verdict survives the error: DOPRI5's test fired on the slow branch
 /// let st = h.stiffness.unwrap();

@@ -12,14 +12,14 @@ fn rk45_at_1e_10_is_within_10x_tolerance_of_exact() {
     let opts = Options::default().rtol(tol).atol(tol);
     let x0 = vector![1.0, 0.5];
     let sol = Problem::new(rotation_decay(), x0, (0.0, 5.0))
-        .solve(Rk45::default(), &opts)
+        .solve(Rk45, &opts)
         .unwrap();
     for (t, x) in sol.t.iter().zip(&sol.x) {
         let e = (x - rotation_decay_exact(*t, &x0)).amax();
         assert!(e < 10.0 * tol, "rotation–decay error {e} at t = {t}");
     }
     let sol = Problem::new(sin_u(), vector![0.5], (0.0, 5.0))
-        .solve(Rk45::default(), &opts)
+        .solve(Rk45, &opts)
         .unwrap();
     for (t, x) in sol.t.iter().zip(&sol.x) {
         let e = (x - sin_u_exact(*t, 0.5)).amax();
@@ -40,7 +40,7 @@ fn dense_output_is_fourth_order_accurate_between_steps() {
         .iter()
         .map(|&h| {
             let sol = p
-                .solve(Rk45::default(), &Options::default().fixed(h).dense(true))
+                .solve(Rk45, &Options::default().fixed(h).dense(true))
                 .unwrap();
             (0..20)
                 .map(|k| {
@@ -56,7 +56,7 @@ fn dense_output_is_fourth_order_accurate_between_steps() {
         "dense local error order {p_obs}, errors {errs:?}"
     );
     // the interpolant reproduces the step ends
-    let sol = p.solve(Rk45::default(), &Options::default().dense(true)).unwrap();
+    let sol = p.solve(Rk45, &Options::default().dense(true)).unwrap();
     for (t, x) in sol.t.iter().zip(&sol.x) {
         assert!((sol.at(*t).unwrap() - x).amax() < 1e-14);
     }
@@ -70,7 +70,7 @@ fn arenstorf_orbit_closes() {
     let opts = Options::default().rtol(1e-11).atol(1e-11);
     let y0 = arenstorf_y0();
     let sol = Problem::new(arenstorf(), y0, (0.0, ARENSTORF_T))
-        .solve(Rk45::default(), &opts)
+        .solve(Rk45, &opts)
         .unwrap();
     let (t, y) = sol.last();
     assert_eq!(t, ARENSTORF_T);
@@ -91,7 +91,7 @@ fn error_falls_with_tolerance() {
         .iter()
         .map(|&tol| {
             let s = p
-                .solve(Rk45::default(), &Options::default().rtol(tol).atol(tol))
+                .solve(Rk45, &Options::default().rtol(tol).atol(tol))
                 .unwrap();
             (s.last().1 - exact).amax()
         })
@@ -108,7 +108,7 @@ fn per_component_tolerances_and_h_max() {
         .atol(vec![1e-12, 1e-12])
         .h_max(0.05);
     let sol = Problem::new(rotation_decay(), x0, (0.0, 1.0))
-        .solve(Rk45::default(), &opts)
+        .solve(Rk45, &opts)
         .unwrap();
     for w in sol.t.windows(2) {
         assert!(w[1] - w[0] <= 0.05 + 1e-15);
@@ -164,7 +164,7 @@ fn zero_component_with_zero_atol() {
     let opts = Options::default().rtol(1e-8).atol(0.0);
     for sol in [
         Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0))
-            .solve(Rk45::default(), &opts)
+            .solve(Rk45, &opts)
             .unwrap(),
         Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0))
             .solve(ImplicitEuler::default(), &opts.clone().rtol(1e-4))

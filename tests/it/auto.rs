@@ -12,7 +12,7 @@ fn van_der_pol_switches_to_bdf_and_beats_dopri5_tenfold() {
     let p = Problem::new(van_der_pol(1000.0), vector![2.0, 0.0], (0.0, 2000.0));
     let o = Options::default().rtol(1e-6).atol(1e-6).max_steps(100_000_000);
     let auto = p.solve(Auto::default(), &o).unwrap();
-    let rk = p.solve(Rk45::default(), &o).unwrap();
+    let rk = p.solve(Rk45, &o).unwrap();
     println!(
         "auto {:?} switches {} first {:?}\nrk45 {:?}",
         auto.stats,
@@ -51,7 +51,7 @@ fn non_stiff_problem_never_switches() {
     let p = Problem::new(arenstorf(), arenstorf_y0(), (0.0, ARENSTORF_T));
     let o = Options::default().rtol(1e-9).atol(1e-9);
     let auto = p.solve(Auto::default(), &o).unwrap();
-    let rk = p.solve(Rk45::default(), &o).unwrap();
+    let rk = p.solve(Rk45, &o).unwrap();
     assert!(auto.switches.is_empty(), "{:?}", auto.switches);
     assert_eq!(auto.t, rk.t);
     assert_eq!(auto.last().1, rk.last().1);
@@ -114,7 +114,7 @@ fn auto_switches_by_estimated_cost_and_records_why() {
     let o = Options::default().rtol(1e-7).atol(1e-7).max_steps(1_000_000);
     let auto = p.solve(Auto::default(), &o).unwrap();
     let bdf = p.solve(Bdf::default(), &o).unwrap();
-    let rk = p.solve(Rk45::default(), &o).unwrap();
+    let rk = p.solve(Rk45, &o).unwrap();
     assert!((auto.last().1[0] - 10f64.sin()).abs() < 1e-5, "{}", auto.last().1[0]);
     let sw = &auto.switches;
     assert_eq!(sw.len(), 2, "{sw:?}");

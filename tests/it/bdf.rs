@@ -230,7 +230,7 @@ fn dense_output_between_steps() {
         .solve(Bdf::default(), &Options::default().rtol(1e-8).atol(1e-8).dense(true))
         .unwrap();
     let r = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-13).dense(true))
+        .solve(Rk45, &Options::default().rtol(1e-13).atol(1e-13).dense(true))
         .unwrap();
     let (mut ends, mut mid) = (0.0f64, 0.0f64);
     for i in 1..sol.t.len() {
@@ -301,7 +301,7 @@ fn events_on_the_stiff_methods() {
         let o = Options::default().rtol(1e-10).atol(1e-12);
         match m {
             "bdf" => prob.solve(Bdf::default(), &o),
-            "rodas5p" => prob.solve(Rodas5P::default(), &o),
+            "rodas5p" => prob.solve(Rodas5P, &o),
             _ => prob.solve(Auto::default(), &o),
         }
         .unwrap()

@@ -11,7 +11,7 @@ use reckon::{Controls, Error, Options, Problem, Solution, System};
 const L: f64 = 2.5;
 
 fn rk45<S: System<Const<4>>>(p: &Problem<'_, Const<4>, S>) -> Solution<Const<4>> {
-    p.solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-13))
+    p.solve(Rk45, &Options::default().rtol(1e-13).atol(1e-13))
         .unwrap()
 }
 

@@ -23,7 +23,7 @@ fn breakpoints_and_t_end_are_hit_exactly() {
     let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 2.9)).controls(c.clone());
     let extra = 0.77;
     let runs = [
-        p.solve(Rk45::default(), &Options::default().breakpoints([extra]))
+        p.solve(Rk45, &Options::default().breakpoints([extra]))
             .unwrap(),
         p.solve(
             ImplicitEuler::default(),
@@ -55,7 +55,7 @@ fn breakpoints_and_t_end_are_hit_exactly() {
     // and RK45 at tight tolerance agrees with it everywhere it stopped
     let tight = p
         .solve(
-            Rk45::default(),
+            Rk45,
             &Options::default().rtol(1e-12).atol(1e-12).breakpoints([extra]),
         )
         .unwrap();
@@ -71,10 +71,10 @@ fn backward_integration_returns_to_start() {
     let x0 = vector![1.0, 0.5];
     let p = Problem::new(rotation_decay(), x0, (0.0, 2.0));
     let fwd = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap();
     let back = Problem::new(rotation_decay(), *fwd.last().1, (2.0, 0.0))
-        .solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12).dense(true))
+        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12).dense(true))
         .unwrap();
     assert_eq!(back.last().0, 0.0);
     assert!((back.last().1 - x0).amax() < 1e-10);
@@ -98,7 +98,7 @@ fn backward_integration_returns_to_start() {
     let down = Problem::new(unicycle::model(), end, (2.9, 0.0)).controls(c);
     for sol in [
         down.solve(Exact::new(unicycle::flow), &Options::default()).unwrap(),
-        down.solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        down.solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
             .unwrap(),
     ] {
         assert!(sol.last().1.amax() < 1e-10, "{}: {}", sol.method, sol.last().1);
@@ -114,7 +114,7 @@ fn events_are_located_on_dense_output() {
         .event(Event::new(zero))
         .event(Event::new(zero).direction(Direction::Falling));
     let sol = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12))
         .unwrap();
     let pi = std::f64::consts::PI;
     let all: Vec<f64> = sol.events.iter().filter(|e| e.index == 0).map(|e| e.t).collect();
@@ -130,7 +130,7 @@ fn events_are_located_on_dense_output() {
     let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 10.0))
         .event(Event::new(zero).direction(Direction::Rising).terminal());
     let sol = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12))
         .unwrap();
     assert!((sol.last().0 - 1.5 * pi).abs() < 1e-9);
     assert!(sol.last().1[0].abs() < 1e-9 && (sol.last().1[1] - 1.0).abs() < 1e-9);
@@ -141,9 +141,9 @@ fn events_are_located_on_dense_output() {
 fn stepping_and_iterating_match_solve() {
     let p = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 5.0));
     let opts = Options::default();
-    let sol = p.solve(Rk45::default(), &opts).unwrap();
+    let sol = p.solve(Rk45, &opts).unwrap();
     let steps: Vec<(f64, SVector<f64, 2>)> = p
-        .integrator(Rk45::default(), &opts)
+        .integrator(Rk45, &opts)
         .unwrap()
         .map(|r| r.unwrap())
         .collect();
@@ -152,7 +152,7 @@ fn stepping_and_iterating_match_solve() {
         assert_eq!(*t, sol.t[k + 1]);
         assert_eq!(*x, sol.x[k + 1]);
     }
-    let mut it = p.integrator(Rk45::default(), &opts).unwrap();
+    let mut it = p.integrator(Rk45, &opts).unwrap();
     let mut n = 0;
     while it.step().unwrap().is_some() {
         n += 1;
@@ -169,7 +169,7 @@ fn dynamic_brusselator_with_faer_lu() {
     let n = 40;
     let p = Problem::new(brusselator(n), brusselator_y0(n), (0.0, 2.0));
     let rk = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-10))
+        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-10))
         .unwrap();
     let ie = p
         .solve(ImplicitEuler::default(), &Options::default().rtol(1e-3).atol(1e-3))
@@ -193,7 +193,7 @@ fn events_backward() {
     let x10 = vector![10f64.cos(), -10f64.sin()];
     let p = Problem::new(&f, x10, (10.0, 0.0)).event(Event::new(|_t, x: &SVector<f64, 2>| x[0]));
     let sol = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12))
         .unwrap();
     let pi = std::f64::consts::PI;
     let ts: Vec<f64> = sol.events.iter().map(|e| e.t).collect();
@@ -241,7 +241,7 @@ fn lean_solve_equals_stepping() {
                     assert_eq!(*sol.t.last().unwrap(), t1);
                 }};
             }
-            same!(Rk45::default(), tol_rk);
+            same!(Rk45, tol_rk);
             same!(ImplicitEuler::default(), tol_ie);
         }
     }

@@ -311,7 +311,7 @@ fn a_linear_systems_ensemble_has_the_propagated_mean_and_covariance() {
         .solve(&layout, |m| {
             let rng = m.rng();
             let z = Vector2::new(StandardNormal.sample(rng), StandardNormal.sample(rng));
-            Problem::new(&f, m0 + l0 * z, (0.0, 5.0)).solve(Rk45::default(), &opts)
+            Problem::new(&f, m0 + l0 * z, (0.0, 5.0)).solve(Rk45, &opts)
         })
         .unwrap();
     let nf = n as f64;

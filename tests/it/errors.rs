@@ -21,7 +21,7 @@ fn nan_after_t1_is_reported_where_it_happens() {
         }
         other => panic!("{what}: expected NonFinite, got {:?}", other.map(|s| s.last().0)),
     };
-    check(p.solve(Rk45::default(), &Options::default()), "rk45", 0.5);
+    check(p.solve(Rk45, &Options::default()), "rk45", 0.5);
     check(
         p.solve(ImplicitEuler::default(), &Options::default().rtol(1e-3)),
         "implicit Euler",
@@ -34,7 +34,7 @@ fn nan_after_t1_is_reported_where_it_happens() {
         0.01,
     );
     check(
-        p.solve(Rk45::default(), &Options::default().fixed(0.01)),
+        p.solve(Rk45, &Options::default().fixed(0.01)),
         "rk45 fixed",
         0.01,
     );
@@ -64,10 +64,10 @@ fn finite_components_whose_sum_overflows_are_not_an_error() {
     let p = Problem::new(&f, x0, (0.0, 2.0));
     for (name, sol) in [
         ("euler, lean fixed", p.solve(Euler, &Options::default().fixed(0.5))),
-        ("rk45, lean adaptive", p.solve(Rk45::default(), &Options::default())),
+        ("rk45, lean adaptive", p.solve(Rk45, &Options::default())),
         (
             "rk45, dense (general path)",
-            p.solve(Rk45::default(), &Options::default().dense(true)),
+            p.solve(Rk45, &Options::default().dense(true)),
         ),
     ] {
         let sol = sol.unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -158,7 +158,7 @@ fn a_step_that_overflows_is_a_typed_error() {
 #[test]
 fn step_size_underflow_at_blow_up() {
     let f = model!(|_t, x: [S; 1]| vector![x[0] * x[0]]);
-    let r = Problem::new(&f, vector![1.0], (0.0, 2.0)).solve(Rk45::default(), &Options::default());
+    let r = Problem::new(&f, vector![1.0], (0.0, 2.0)).solve(Rk45, &Options::default());
     match r {
         Err(Error::StepSizeUnderflow { t, h }) => {
             assert!((t - 1.0).abs() < 1e-6, "t = {t}");
@@ -171,7 +171,7 @@ fn step_size_underflow_at_blow_up() {
 #[test]
 fn step_limit() {
     let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
-    let r = Problem::new(&f, vector![1.0, 0.0], (0.0, 100.0)).solve(Rk45::default(), &Options::default().max_steps(10));
+    let r = Problem::new(&f, vector![1.0, 0.0], (0.0, 100.0)).solve(Rk45, &Options::default().max_steps(10));
     match r {
         Err(Error::MaxSteps { t, steps: 10 }) => assert!(t > 0.0 && t < 100.0),
         other => panic!("expected MaxSteps, got {other:?}"),
@@ -194,13 +194,13 @@ fn invalid_options_and_inputs() {
     let x0 = vector![1.0, 0.0];
     let p = Problem::new(&f, x0, (0.0, 1.0));
     let d = Options::default();
-    assert_eq!(invalid(p.solve(Rk45::default(), &d.clone().rtol(-1e-6))), "rtol");
-    assert_eq!(invalid(p.solve(Rk45::default(), &d.clone().atol(f64::NAN))), "atol");
+    assert_eq!(invalid(p.solve(Rk45, &d.clone().rtol(-1e-6))), "rtol");
+    assert_eq!(invalid(p.solve(Rk45, &d.clone().atol(f64::NAN))), "atol");
     assert_eq!(
-        invalid(p.solve(Rk45::default(), &d.clone().rtol(0.0).atol(0.0))),
+        invalid(p.solve(Rk45, &d.clone().rtol(0.0).atol(0.0))),
         "atol"
     );
-    assert_eq!(invalid(p.solve(Rk45::default(), &d.clone().rtol(vec![1e-6]))), "rtol");
+    assert_eq!(invalid(p.solve(Rk45, &d.clone().rtol(vec![1e-6]))), "rtol");
     assert_eq!(invalid(p.solve(Euler, &d.clone().fixed(0.0))), "step");
     assert_eq!(invalid(p.solve(Euler, &d.clone().fixed(-0.1))), "step");
     assert_eq!(
@@ -208,19 +208,19 @@ fn invalid_options_and_inputs() {
         "step"
     );
     assert_eq!(invalid(p.solve(Euler, &d)), "step"); // adaptive without an estimate
-    assert_eq!(invalid(p.solve(Rk45::default(), &d.clone().h0(-1.0))), "h0");
-    assert_eq!(invalid(p.solve(Rk45::default(), &d.clone().h_max(0.0))), "h_max");
-    assert_eq!(invalid(p.solve(Rk45::default(), &d.clone().max_steps(0))), "max_steps");
+    assert_eq!(invalid(p.solve(Rk45, &d.clone().h0(-1.0))), "h0");
+    assert_eq!(invalid(p.solve(Rk45, &d.clone().h_max(0.0))), "h_max");
+    assert_eq!(invalid(p.solve(Rk45, &d.clone().max_steps(0))), "max_steps");
     assert_eq!(
-        invalid(p.solve(Rk45::default(), &d.clone().breakpoints([f64::NAN]))),
+        invalid(p.solve(Rk45, &d.clone().breakpoints([f64::NAN]))),
         "breakpoints"
     );
     let empty = Problem::new(&f, x0, (1.0, 1.0));
-    assert_eq!(invalid(empty.solve(Rk45::default(), &d)), "span");
+    assert_eq!(invalid(empty.solve(Rk45, &d)), "span");
     let inf = Problem::new(&f, x0, (0.0, f64::INFINITY));
-    assert_eq!(invalid(inf.solve(Rk45::default(), &d)), "span");
+    assert_eq!(invalid(inf.solve(Rk45, &d)), "span");
     let nan0 = Problem::new(&f, vector![f64::NAN, 0.0], (0.0, 1.0));
-    assert_eq!(invalid(nan0.solve(Rk45::default(), &d)), "x0");
+    assert_eq!(invalid(nan0.solve(Rk45, &d)), "x0");
 }
 
 #[test]
@@ -228,9 +228,9 @@ fn dimension_and_control_mismatches() {
     // a dynamic model that returns the wrong number of components
     let g = model!(|_t, x: [S; Dyn]| DVector::from_element(x.len() + 1, S::from(0.0)));
     let p = Problem::new(&g, DVector::from_vec(vec![1.0, 2.0]), (0.0, 1.0));
-    assert_eq!(invalid(p.solve(Rk45::default(), &Options::default())), "model");
+    assert_eq!(invalid(p.solve(Rk45, &Options::default())), "model");
     let e = Problem::new(&g, DVector::from_vec(vec![]), (0.0, 1.0));
-    assert_eq!(invalid(e.solve(Rk45::default(), &Options::default())), "x0");
+    assert_eq!(invalid(e.solve(Rk45, &Options::default())), "x0");
     // a model with inputs but no controls, and controls of the wrong width
     let u = unicycle::model();
     let x0 = vector![0.0, 0.0, 0.0];
@@ -240,11 +240,11 @@ fn dimension_and_control_mismatches() {
     );
     let c1 = Controls::new(vec![0.0], vec![vec![1.0]]).unwrap();
     let p = Problem::new(&u, x0, (0.0, 1.0)).controls(c1);
-    assert_eq!(invalid(p.solve(Rk45::default(), &Options::default())), "controls");
+    assert_eq!(invalid(p.solve(Rk45, &Options::default())), "controls");
     // the span starts before the first control sample
     let c2 = Controls::new(vec![0.5], vec![vec![1.0, 0.0]]).unwrap();
     let p = Problem::new(&u, x0, (0.0, 1.0)).controls(c2);
-    assert_eq!(invalid(p.solve(Rk45::default(), &Options::default())), "controls");
+    assert_eq!(invalid(p.solve(Rk45, &Options::default())), "controls");
     // malformed controls
     assert!(Controls::new(vec![0.0, 0.0], vec![vec![1.0], vec![1.0]]).is_err());
     assert!(Controls::new(vec![0.0, 1.0], vec![vec![1.0], vec![1.0, 2.0]]).is_err());
@@ -289,12 +289,12 @@ fn stiff_methods_fail_with_typed_errors() {
     let h = 0.5;
     let c = 1.0 / (h * reckon::methods::rodas5p::GAMMA);
     let g = model!(|_t, x: [S; 1]| vector![x[0] * c]);
-    let r = Problem::new(&g, vector![1.0], (0.0, 2.0 * h)).solve(Rodas5P::default(), &Options::default().fixed(h));
+    let r = Problem::new(&g, vector![1.0], (0.0, 2.0 * h)).solve(Rodas5P, &Options::default().fixed(h));
     assert!(matches!(r, Err(Error::SingularMatrix { t, .. }) if t == 0.0), "{r:?}");
     // adaptive runs into the blow-up at t = 1: a typed error there, never a panic or ∞
     for r in [
         Problem::new(&sq, vector![1.0], (0.0, 2.0)).solve(Bdf::default(), &Options::default()),
-        Problem::new(&sq, vector![1.0], (0.0, 2.0)).solve(Rodas5P::default(), &Options::default()),
+        Problem::new(&sq, vector![1.0], (0.0, 2.0)).solve(Rodas5P, &Options::default()),
     ] {
         match r {
             Err(Error::StepSizeUnderflow { t, .. } | Error::NewtonDiverged { t, .. } | Error::NonFinite { t, .. }) => {

@@ -13,7 +13,7 @@ fn end_error<const N: usize, S: System<Const<N>>>(
     exact: &SVector<f64, N>,
 ) -> f64 {
     let sol = p
-        .solve(ExponentialEuler::default(), &Options::default().fixed(h))
+        .solve(ExponentialEuler, &Options::default().fixed(h))
         .unwrap();
     assert_eq!(sol.last().0, p.t_end);
     (sol.last().1 - exact).amax()
@@ -65,14 +65,14 @@ fn exact_on_linear_models_at_any_step() {
     ];
     for h in [2.0, 0.5, 0.05] {
         let sol = p
-            .solve(ExponentialEuler::default(), &Options::default().fixed(h))
+            .solve(ExponentialEuler, &Options::default().fixed(h))
             .unwrap();
         let e = (sol.last().1 - want).amax() / want.amax();
         assert!(e <= 1e-13, "h = {h}: {e:e}");
     }
     // adaptive: the estimate vanishes on a linear model, so the steps grow freely
     let sol = p
-        .solve(ExponentialEuler::default(), &Options::default().rtol(1e-10).atol(1e-12))
+        .solve(ExponentialEuler, &Options::default().rtol(1e-10).atol(1e-12))
         .unwrap();
     assert!((sol.last().1 - want).amax() / want.amax() <= 1e-13);
     assert!(sol.stats.accepted <= 8, "{} steps", sol.stats.accepted);
@@ -83,7 +83,7 @@ fn stable_on_the_stiff_cosine_problem() {
     // x' = −1000(x − cos t) − sin t, x = cos t: h = 0.1 is 50× explicit Euler's limit
     let p = Problem::new(stiff_cosine(), vector![1.0], (0.0, 10.0));
     let sol = p
-        .solve(ExponentialEuler::default(), &Options::default().fixed(0.1))
+        .solve(ExponentialEuler, &Options::default().fixed(0.1))
         .unwrap();
     assert_eq!(sol.stats.accepted, 100);
     let worst = sol
@@ -111,7 +111,7 @@ fn adaptive_error_follows_the_tolerance() {
     let p = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 5.0));
     let reference = *p
         .solve(
-            reckon::methods::Rk45::default(),
+            reckon::methods::Rk45,
             &Options::default().rtol(1e-13).atol(1e-13),
         )
         .unwrap()
@@ -122,7 +122,7 @@ fn adaptive_error_follows_the_tolerance() {
     let mut steps = Vec::new();
     for tol in tols {
         let sol = p
-            .solve(ExponentialEuler::default(), &Options::default().rtol(tol).atol(tol))
+            .solve(ExponentialEuler, &Options::default().rtol(tol).atol(tol))
             .unwrap();
         let e = (sol.last().1 - reference).amax();
         println!(
@@ -147,7 +147,7 @@ fn dense_output_is_hermite_between_the_steps() {
     let p = Problem::new(sin_u(), vector![1.0], (0.0, 2.0));
     let sol = p
         .solve(
-            ExponentialEuler::default(),
+            ExponentialEuler,
             &Options::default().rtol(1e-6).atol(1e-6).dense(true),
         )
         .unwrap();
@@ -216,5 +216,5 @@ fn exponential_of_a_huge_matrix_returns() {
         (1e-7, 5.5000001),
     );
     let o = reckon::Options::default().rtol(0.0).atol(1e-6).max_steps(8406);
-    let _ = p.solve(reckon::methods::ExponentialEuler::default(), &o);
+    let _ = p.solve(reckon::methods::ExponentialEuler, &o);
 }

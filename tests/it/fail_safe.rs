@@ -39,7 +39,7 @@ where
         let p = Problem::new(f.clone(), y0, (0.0, t1));
         let runs = [
             ("bdf", p.solve(Bdf::default(), &o)),
-            ("rodas5p", p.solve(Rodas5P::default(), &o)),
+            ("rodas5p", p.solve(Rodas5P, &o)),
             ("auto", p.solve(Auto::default(), &o)),
             ("implicit-euler", p.solve(ImplicitEuler::default(), &o)),
         ];
@@ -171,15 +171,15 @@ fn non_finite_trial_states_are_rejected_not_fatal() {
     let vdp = van_der_pol(1000.0);
     let p = Problem::new(&vdp, vector![2.0, 0.0], (0.0, 2000.0));
     let o = Options::default().rtol(1e-2).atol(1e-2);
-    let s = p.solve(Rodas5P::default(), &o).unwrap();
+    let s = p.solve(Rodas5P, &o).unwrap();
     assert!(mescd(s.last().1, &VDPOLM_REF_2000, 1e-2, 1e-2) >= 0.0);
     // a model that is NaN at the start: the typed error, with where it broke
     let bad = reckon::model!(|_t, x: [S; 1]| vector![-x[0].clone().sqrt()]);
     let p = Problem::new(&bad, vector![-1.0], (0.0, 1.0));
     for e in [
-        p.solve(Rodas5P::default(), &o).unwrap_err(),
+        p.solve(Rodas5P, &o).unwrap_err(),
         p.solve(Bdf::default(), &o).unwrap_err(),
-        p.solve(Rk45::default(), &o).unwrap_err(),
+        p.solve(Rk45, &o).unwrap_err(),
     ] {
         assert!(matches!(e, Error::NonFinite { t, .. } if t == 0.0), "{e}");
     }

@@ -45,13 +45,13 @@ where
         let o = Options::default().rtol(rtol).atol(atol * rtol).max_steps(400_000);
         line(out, &format!("{name} bdf {rtol:e}"), &p, Bdf::default(), &o);
         line(out, &format!("{name} bdf-plain {rtol:e}"), &p, Bdf::bdf(), &o);
-        line(out, &format!("{name} rodas5p {rtol:e}"), &p, Rodas5P::default(), &o);
+        line(out, &format!("{name} rodas5p {rtol:e}"), &p, Rodas5P, &o);
         line(out, &format!("{name} auto {rtol:e}"), &p, Auto::default(), &o);
         line(
             out,
             &format!("{name} exponential-euler {rtol:e}"),
             &p,
-            ExponentialEuler::default(),
+            ExponentialEuler,
             &o,
         );
         if rtol > 1e-4 {
@@ -89,27 +89,27 @@ fn every_method_on_the_test_problems() {
         &mut out,
         "rotation-decay rk45 h 0.1",
         &rd,
-        Rk45::default(),
+        Rk45,
         &Options::default().fixed(0.1),
     );
     line(
         &mut out,
         "rotation-decay exponential-euler h 0.5",
         &rd,
-        ExponentialEuler::default(),
+        ExponentialEuler,
         &Options::default().fixed(0.5),
     );
     let ar = Problem::new(arenstorf(), arenstorf_y0(), (0.0, ARENSTORF_T));
     for rtol in [1e-3, 1e-6, 1e-10] {
         let o = Options::default().rtol(rtol).atol(rtol);
-        line(&mut out, &format!("arenstorf rk45 {rtol:e}"), &ar, Rk45::default(), &o);
+        line(&mut out, &format!("arenstorf rk45 {rtol:e}"), &ar, Rk45, &o);
     }
     let lz = Problem::new(lorenz(), lorenz_y0(), (0.0, 20.0));
     line(
         &mut out,
         "lorenz rk45 1e-8 dense",
         &lz,
-        Rk45::default(),
+        Rk45,
         &Options::default().rtol(1e-8).dense(true),
     );
     let su = Problem::new(sin_u(), vector![0.5], (0.0, 5.0));
@@ -153,7 +153,7 @@ fn every_method_on_the_test_problems() {
         &mut out,
         "unicycle rk45 1e-10",
         &up,
-        Rk45::default(),
+        Rk45,
         &Options::default().rtol(1e-10),
     );
     line(&mut out, "unicycle bdf 1e-6", &up, Bdf::default(), &Options::default());
@@ -181,7 +181,7 @@ fn every_method_on_the_test_problems() {
         &mut out,
         "brusselator-100 rodas5p sparse 1e-6",
         &br,
-        Rodas5P::default(),
+        Rodas5P,
         &o,
     );
     golden("methods", &out);

@@ -19,7 +19,7 @@ fn compare<const N: usize>(
         let h = hand::dopri5(hand, 0.0, t_end, x0, tol);
         let p = Problem::new(&sys, nalgebra::SVector::from(x0), (0.0, t_end));
         let r = p
-            .solve(Rk45::default(), &Options::default().rtol(tol).atol(tol).dense(false))
+            .solve(Rk45, &Options::default().rtol(tol).atol(tol).dense(false))
             .unwrap();
         let ratio = r.stats.rhs_evals as f64 / h.evals as f64;
         assert!(

@@ -145,7 +145,7 @@ fn step_jacobians_match_central_differences() {
         (Discretization::Euler, Box::new(|x| step_f64(&sys, Euler, x, &u, h))),
         (
             Discretization::Rk45,
-            Box::new(|x| step_f64(&sys, Rk45::default(), x, &u, h)),
+            Box::new(|x| step_f64(&sys, Rk45, x, &u, h)),
         ),
         (
             Discretization::ImplicitEuler,

@@ -22,7 +22,7 @@ fn truth_poses(controls: &Controls, p: &[f64], t: &[f64]) -> Vec<Vector3<f64>> {
     let sol = Problem::new(&f, vector![0.0, 0.0, 0.0], (0.0, *t.last().unwrap()))
         .controls(controls.clone())
         .solve(
-            Rk45::default(),
+            Rk45,
             &Options::default().rtol(1e-12).atol(1e-14).save(Save::At(t.to_vec())),
         )
         .unwrap();
@@ -63,7 +63,7 @@ fn fit(obs: &Observations, controls: &Controls) -> reckon::Result<lsq::Fit> {
         0.0,
         controls,
         obs,
-        Rk45::default(),
+        Rk45,
         &Options::default().rtol(1e-10).atol(1e-12),
         &LsqOptions::default(),
     )
@@ -230,7 +230,7 @@ fn a_fit_that_cannot_move_is_an_error_not_the_start() {
         0.0,
         &u,
         &obs,
-        Rk45::default(),
+        Rk45,
         &Options::default().rtol(1e-10).atol(1e-12),
         &LsqOptions::default(),
     );

@@ -94,7 +94,7 @@ fn flow_properties() {
     // and it is the flow of x' = A x + B u: matches RK45 at tight tolerance
     let p = Problem::new(&lti, x, (0.0, 3.0)).inputs(u.to_vec());
     let rk = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-15))
+        .solve(Rk45, &Options::default().rtol(1e-13).atol(1e-15))
         .unwrap();
     flow.flow(0.0, &x, &u, 3.0, &mut out);
     assert!(
@@ -131,7 +131,7 @@ fn dynamic_size_and_bad_input() {
     let p = Problem::new(&lti, DVector::from_vec(vec![0.0, 0.0, 0.0]), (0.0, 2.0)).inputs(vec![1.0]);
     let ex = p.solve(Exact::new(lti.flow()), &Options::default()).unwrap();
     let rk = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-15))
+        .solve(Rk45, &Options::default().rtol(1e-13).atol(1e-15))
         .unwrap();
     assert!((ex.last().1 - rk.last().1).amax() < 1e-12);
     // x₁' = −x₁ + 1 from 0: 1 − e^{−t}
@@ -377,7 +377,7 @@ proptest! {
         prop_assert_eq!(ex.stats.accepted, 1);
         let want = reference(&c, &x0, &u, 1.0);
         prop_assert!(rel(ex.last().1, &want) < 1e-12, "vs reference: {:e}", rel(ex.last().1, &want));
-        let rk = p.solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-16)).unwrap();
+        let rk = p.solve(Rk45, &Options::default().rtol(1e-13).atol(1e-16)).unwrap();
         prop_assert!(rel(ex.last().1, rk.last().1) < 1e-10, "vs RK45: {:e}", rel(ex.last().1, rk.last().1));
         // 100× RK45's stability limit (|hλ| ≈ 3.3 on the negative axis), 20 steps
         let h = 100.0 * 3.3 / c.lam_max;

@@ -22,7 +22,7 @@ fn epoch_timestamps_integrate_like_t0_zero() {
     let opts = Options::default().rtol(1e-8).atol(1e-10);
     for t0 in [0.0, 1.7e9, 1.7e12, -1.7e12] {
         let p = Problem::new(&f, vector![1.0, 1.0], (t0, t0 + 2.0));
-        let rk = p.solve(Rk45::default(), &opts).unwrap();
+        let rk = p.solve(Rk45, &opts).unwrap();
         // adaptive implicit Euler, first order: at rtol 1e-4 (its error follows the
         // tolerance; 1e-8 would take millions of steps)
         let ie = p
@@ -33,7 +33,7 @@ fn epoch_timestamps_integrate_like_t0_zero() {
         assert!((ie.last().1 - exact(2.0)).amax() < 1e-4, "implicit Euler at t0 = {t0}");
         // same number of steps as from 0: the epoch costs nothing
         let p0 = Problem::new(&f, vector![1.0, 1.0], (0.0, 2.0));
-        let rk0 = p0.solve(Rk45::default(), &opts).unwrap();
+        let rk0 = p0.solve(Rk45, &opts).unwrap();
         assert_eq!(rk.stats.accepted, rk0.stats.accepted, "t0 = {t0}");
     }
 }
@@ -59,7 +59,7 @@ fn control_times_a_few_ulps_apart() {
             "implicit",
             end(p.solve(ImplicitEuler::default(), &Options::default().fixed(0.1))),
         ),
-        ("rk45", end(p.solve(Rk45::default(), &Options::default()))),
+        ("rk45", end(p.solve(Rk45, &Options::default()))),
         (
             "implicit adaptive",
             end(p.solve(ImplicitEuler::default(), &Options::default())),
@@ -115,10 +115,10 @@ fn dyn_model_of_the_wrong_length_is_a_typed_error() {
             let opts = Options::default();
             match (sys_name, m) {
                 ("grow", "euler") => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(Euler, &opts.fixed(0.1)),
-                ("grow", "rk45") => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(Rk45::default(), &opts),
+                ("grow", "rk45") => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(Rk45, &opts),
                 ("grow", _) => Problem::new(&grow, x0.clone(), (0.0, 1.0)).solve(ImplicitEuler::default(), &opts),
                 (_, "euler") => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(Euler, &opts.fixed(0.1)),
-                (_, "rk45") => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(Rk45::default(), &opts),
+                (_, "rk45") => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(Rk45, &opts),
                 _ => Problem::new(&shrink, x0.clone(), (0.0, 1.0)).solve(ImplicitEuler::default(), &opts),
             }
         };
@@ -159,7 +159,7 @@ fn nan_event_function_is_an_error() {
         Event::new(|_t, x: &nalgebra::SVector<f64, 1>| (0.5 - x[0]).sqrt() - 0.5f64.sqrt() + 1.0 - x[0]).terminal();
     let r = Problem::new(&f, vector![0.0], (0.0, 3.0))
         .event(ev)
-        .solve(Rk45::default(), &Options::default());
+        .solve(Rk45, &Options::default());
     match r {
         Err(Error::EventNaN { index: 0, t }) => assert!(t > 0.5 && t <= 3.0, "t = {t}"),
         other => panic!("expected EventNaN, got {other:?}"),
@@ -180,7 +180,7 @@ fn event_pole_is_a_crossing() {
     let ev = Event::new(|_t, x: &nalgebra::SVector<f64, 1>| 1.0 / (x[0] - 1.25));
     let sol = Problem::new(&f, vector![0.0], (0.0, 2.0))
         .event(ev)
-        .solve(Rk45::default(), &Options::default())
+        .solve(Rk45, &Options::default())
         .unwrap();
     let ts: Vec<f64> = sol.events.iter().map(|e| e.t).collect();
     assert_eq!(ts.len(), 1, "{ts:?}");
@@ -211,7 +211,7 @@ fn tiny_tolerances_give_a_typed_error_or_an_answer() {
         let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
         let opts = Options::default().rtol(0.0).atol(atol).max_steps(2000);
         for r in [
-            p.solve(Rk45::default(), &opts),
+            p.solve(Rk45, &opts),
             p.solve(ImplicitEuler::default(), &opts),
         ] {
             match r {
@@ -228,7 +228,7 @@ fn tiny_tolerances_give_a_typed_error_or_an_answer() {
             let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
             let opts = Options::default().rtol(tol).atol(tol).max_steps(2000);
             let r = match method {
-                "rk45" => p.solve(Rk45::default(), &opts),
+                "rk45" => p.solve(Rk45, &opts),
                 _ => p.solve(ImplicitEuler::default(), &opts),
             };
             match r {
@@ -285,7 +285,7 @@ fn streaming_matches_controls_bit_for_bit() {
     }
     both!(Exact::new(unicycle::flow), Options::default().dense(false), "exact");
     both!(Euler, Options::default().fixed(0.02).dense(false), "euler");
-    both!(Rk45::default(), Options::default().rtol(1e-9).dense(false), "rk45");
+    both!(Rk45, Options::default().rtol(1e-9).dense(false), "rk45");
     both!(ImplicitEuler::default(), Options::default().fixed(0.01), "implicit");
     // an open-ended span cannot be solved to its end
     assert!(matches!(
@@ -331,7 +331,7 @@ fn implicit_euler_near_a_blow_up_is_a_documented_limit() {
         .last()
         .1[0];
     assert!(per_step > 2000.0, "{per_step}");
-    let rk = p.solve(Rk45::default(), &Options::default()).unwrap().last().1[0];
+    let rk = p.solve(Rk45, &Options::default()).unwrap().last().1[0];
     assert!((rk / 1000.0 - 1.0).abs() < 1e-3, "{rk}");
 }
 

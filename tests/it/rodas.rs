@@ -206,7 +206,7 @@ where
     let errs: Vec<f64> = hs
         .iter()
         .map(|&h| {
-            let sol = p.solve(Rodas5P::default(), &Options::default().fixed(h)).unwrap();
+            let sol = p.solve(Rodas5P, &Options::default().fixed(h)).unwrap();
             assert!((sol.last().0 - t_end).abs() < 1e-12);
             (sol.last().1 - exact).amax()
         })
@@ -368,7 +368,7 @@ fn published<const N: usize, S: System<nalgebra::Const<N>>>(
             .dense(false)
             .max_steps(1_000_000);
         let sol = Problem::new(&f, y0, (0.0, t_end))
-            .solve(Rodas5P::default(), &opts)
+            .solve(Rodas5P, &opts)
             .unwrap();
         let (mescd, scd) = digits(sol.last().1, yref, atol, rtol);
         let s = sol.stats;
@@ -427,11 +427,11 @@ fn hires_published_end_state() {
 fn dense_output_matches_tight_solution() {
     let p = Problem::new(van_der_pol(5.0), vector![2.0, 0.0], (0.0, 10.0));
     let tight = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-13).atol(1e-13).dense(true))
+        .solve(Rk45, &Options::default().rtol(1e-13).atol(1e-13).dense(true))
         .unwrap();
     let sol = p
         .solve(
-            Rodas5P::default(),
+            Rodas5P,
             &Options::default().rtol(1e-7).atol(1e-9).dense(true),
         )
         .unwrap();

@@ -11,11 +11,11 @@ use reckon::{Error, Event, Options, Problem, Save, StepSize, model};
 fn end_and_every_k_keep_a_subset_of_the_same_steps() {
     let p = Problem::new(lorenz(), vector![1.0, 1.0, 1.0], (0.0, 20.0));
     let o = Options::default().rtol(1e-8).atol(1e-8).dense(false);
-    let all = p.solve(Rk45::default(), &o).unwrap();
+    let all = p.solve(Rk45, &o).unwrap();
     let n = all.t.len();
     assert!(n > 1000, "{n} steps");
 
-    let end = p.solve(Rk45::default(), &o.clone().save(Save::End)).unwrap();
+    let end = p.solve(Rk45, &o.clone().save(Save::End)).unwrap();
     assert_eq!(end.t, [0.0, 20.0]);
     assert_eq!(end.x[1], *all.last().1); // bit for bit
     assert_eq!(end.stats, all.stats);
@@ -23,7 +23,7 @@ fn end_and_every_k_keep_a_subset_of_the_same_steps() {
     assert_eq!(all.kept_bytes(), n * 8 + n * 3 * 8);
 
     let k = 7;
-    let every = p.solve(Rk45::default(), &o.clone().save(Save::Every(k))).unwrap();
+    let every = p.solve(Rk45, &o.clone().save(Save::Every(k))).unwrap();
     let mut want: Vec<usize> = (0..n).step_by(k).collect();
     if *want.last().unwrap() != n - 1 {
         want.push(n - 1);
@@ -36,8 +36,8 @@ fn end_and_every_k_keep_a_subset_of_the_same_steps() {
 
     // the general (non-lean) path: a breakpoint forces it, and the subset rule holds there
     let ob = o.clone().breakpoints(vec![7.5]);
-    let allb = p.solve(Rk45::default(), &ob).unwrap();
-    let endb = p.solve(Rk45::default(), &ob.save(Save::End)).unwrap();
+    let allb = p.solve(Rk45, &ob).unwrap();
+    let endb = p.solve(Rk45, &ob.save(Save::End)).unwrap();
     assert_eq!(endb.t, [0.0, 20.0]);
     assert_eq!(endb.x[1], *allb.last().1);
 }
@@ -53,8 +53,8 @@ fn output_times_from_the_dense_polynomial() {
     let o = Options::default().rtol(1e-10).atol(1e-12).save(Save::At(times.clone()));
     // (method, largest error at the output times)
     for (name, s, tol) in [
-        ("rk45", p.solve(Rk45::default(), &o).unwrap(), 1e-9),
-        ("rodas5p", p.solve(Rodas5P::default(), &o).unwrap(), 1e-8),
+        ("rk45", p.solve(Rk45, &o).unwrap(), 1e-9),
+        ("rodas5p", p.solve(Rodas5P, &o).unwrap(), 1e-8),
         ("bdf", p.solve(Bdf::default(), &o).unwrap(), 1e-8),
     ] {
         assert_eq!(s.t, times, "{name}: output times land exactly");
@@ -72,9 +72,9 @@ fn output_times_from_the_dense_polynomial() {
     }
     // the same as interpolating a run that kept its dense output, bit for bit
     let d = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-10).atol(1e-12).dense(true))
+        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12).dense(true))
         .unwrap();
-    let s = p.solve(Rk45::default(), &o).unwrap();
+    let s = p.solve(Rk45, &o).unwrap();
     for (t, x) in s.t.iter().zip(&s.x) {
         assert_eq!(*x, d.at(*t).unwrap(), "t = {t}");
     }
@@ -101,7 +101,7 @@ fn output_times_backward_and_with_a_terminal_event() {
     let ts = vec![-0.5, -1.0, -2.5, -3.0];
     let s = p
         .solve(
-            Rk45::default(),
+            Rk45,
             &Options::default().rtol(1e-11).atol(1e-12).save(Save::At(ts.clone())),
         )
         .unwrap();
@@ -117,7 +117,7 @@ fn output_times_backward_and_with_a_terminal_event() {
         Problem::new(&f, vector![1.0, 0.0], (0.0, 3.0)).event(Event::new(|_t, x: &SVector<f64, 2>| x[0]).terminal());
     let s = p
         .solve(
-            Rk45::default(),
+            Rk45,
             &Options::default()
                 .rtol(1e-11)
                 .atol(1e-12)
@@ -144,7 +144,7 @@ fn invalid_save_options_are_typed_errors() {
         (Save::At(vec![0.5, 1.5]), "outside"),
         (Save::At(vec![-0.1]), "outside"),
     ] {
-        match p.solve(Rk45::default(), &Options::default().save(save.clone())) {
+        match p.solve(Rk45, &Options::default().save(save.clone())) {
             Err(Error::InvalidInput { what, reason }) => {
                 assert_eq!(what, "save");
                 assert!(reason.contains(needle), "{save:?}: {reason}");
@@ -163,7 +163,7 @@ fn default_solve_keeps_no_dense_output() {
     assert!(!Options::default().dense);
     let p = Problem::new(lorenz(), vector![1.0, 1.0, 1.0], (0.0, 5.0));
     let o = Options::default().rtol(1e-8).atol(1e-8);
-    let s = p.solve(Rk45::default(), &o).unwrap();
+    let s = p.solve(Rk45, &o).unwrap();
     let n = s.t.len();
     assert!(s.dense_segments().is_empty());
     assert_eq!(s.kept_bytes(), n * 8 + n * 3 * 8, "times and states only");
@@ -172,7 +172,7 @@ fn default_solve_keeps_no_dense_output() {
     assert_eq!(e, Error::NoDenseOutput { t: tm });
     assert!(e.to_string().contains("set Options::dense(true)"), "{e}");
     // asked for: one polynomial of 5 coefficients (DOPRI5's dense output) per step
-    let d = p.solve(Rk45::default(), &o.clone().dense(true)).unwrap();
+    let d = p.solve(Rk45, &o.clone().dense(true)).unwrap();
     assert_eq!(d.t, s.t, "the same steps");
     assert_eq!(d.x, s.x);
     assert_eq!(d.dense_segments().len(), n - 1);
@@ -182,9 +182,9 @@ fn default_solve_keeps_no_dense_output() {
     let q = Problem::new(van_der_pol(5.0), vector![2.0, 0.0], (0.0, 20.0))
         .event(Event::new(|_t, x: &SVector<f64, 2>| x[0]));
     for (name, s) in [
-        ("rk45", q.solve(Rk45::default(), &o).unwrap()),
+        ("rk45", q.solve(Rk45, &o).unwrap()),
         ("bdf", q.solve(Bdf::default(), &o).unwrap()),
-        ("rodas5p", q.solve(Rodas5P::default(), &o).unwrap()),
+        ("rodas5p", q.solve(Rodas5P, &o).unwrap()),
         ("euler", q.solve(Euler, &Options::default().fixed(1e-3)).unwrap()),
     ] {
         assert!(s.dense_segments().is_empty(), "{name}");
@@ -195,8 +195,8 @@ fn default_solve_keeps_no_dense_output() {
     // vectors per step besides the step end, six times the data
     let b = Problem::new(brusselator(500), brusselator_y0(500), (0.0, 0.1));
     let o = Options::default().rtol(1e-4).atol(1e-4);
-    let lean = b.solve(Rk45::default(), &o).unwrap();
-    let full = b.solve(Rk45::default(), &o.dense(true)).unwrap();
+    let lean = b.solve(Rk45, &o).unwrap();
+    let full = b.solve(Rk45, &o.dense(true)).unwrap();
     let steps = lean.t.len() - 1;
     assert_eq!(lean.kept_bytes(), (steps + 1) * (8 + 8000));
     assert_eq!(full.kept_bytes(), lean.kept_bytes() + steps * (24 + 5 * 8000));
@@ -259,9 +259,9 @@ fn dense_true_interpolates_as_the_old_default() {
     ];
     for (name, segments, bits) in old {
         let s = match name {
-            "rk45" => p.solve(Rk45::default(), &o),
+            "rk45" => p.solve(Rk45, &o),
             "bdf" => p.solve(Bdf::default(), &o),
-            _ => p.solve(Rodas5P::default(), &o),
+            _ => p.solve(Rodas5P, &o),
         }
         .unwrap();
         assert_eq!(s.dense_segments().len(), segments, "{name}");
@@ -275,9 +275,9 @@ fn dense_true_interpolates_as_the_old_default() {
         }
         // Save::At with the default (no kept polynomials) gives the same values
         let a = match name {
-            "rk45" => p.solve(Rk45::default(), &o.clone().dense(false).save(Save::At(ts.to_vec()))),
+            "rk45" => p.solve(Rk45, &o.clone().dense(false).save(Save::At(ts.to_vec()))),
             "bdf" => p.solve(Bdf::default(), &o.clone().dense(false).save(Save::At(ts.to_vec()))),
-            _ => p.solve(Rodas5P::default(), &o.clone().dense(false).save(Save::At(ts.to_vec()))),
+            _ => p.solve(Rodas5P, &o.clone().dense(false).save(Save::At(ts.to_vec()))),
         }
         .unwrap();
         assert!(a.dense_segments().is_empty());

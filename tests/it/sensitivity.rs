@@ -46,8 +46,8 @@ fn linear_system_gives_the_matrix_exponential() {
     let tight = Options::default().rtol(1e-13).atol(1e-15);
     let exact = DMatrix::from_column_slice(2, 2, expm(2.0).as_slice());
     for (name, s) in [
-        ("dopri5", sens(&p, Rk45::default(), &tight)),
-        ("rodas5p", sens(&p, Rodas5P::default(), &tight)),
+        ("dopri5", sens(&p, Rk45, &tight)),
+        ("rodas5p", sens(&p, Rodas5P, &tight)),
         (
             "bdf",
             sens(&p, Bdf::default(), &Options::default().rtol(1e-12).atol(1e-14)),
@@ -76,8 +76,8 @@ fn linear_system_sensitivity_is_the_discrete_propagator_for_every_method() {
     let adaptive = Options::default().rtol(1e-6).atol(1e-9);
     let runs: Vec<(&str, Sensitivities<_>)> = vec![
         ("explicit euler, fixed", sens(&p, Euler, &fixed)),
-        ("dopri5, fixed", sens(&p, Rk45::default(), &fixed)),
-        ("dopri5, adaptive", sens(&p, Rk45::default(), &adaptive)),
+        ("dopri5, fixed", sens(&p, Rk45, &fixed)),
+        ("dopri5, adaptive", sens(&p, Rk45, &adaptive)),
         (
             "implicit euler, fixed",
             sens(&p, ImplicitEuler::default().proportional(false), &fixed),
@@ -88,8 +88,8 @@ fn linear_system_sensitivity_is_the_discrete_propagator_for_every_method() {
         ),
         ("bdf, fixed", sens(&p, Bdf::default(), &fixed)),
         ("bdf, adaptive", sens(&p, Bdf::default(), &adaptive)),
-        ("rodas5p, fixed", sens(&p, Rodas5P::default(), &fixed)),
-        ("rodas5p, adaptive", sens(&p, Rodas5P::default(), &adaptive)),
+        ("rodas5p, fixed", sens(&p, Rodas5P, &fixed)),
+        ("rodas5p, adaptive", sens(&p, Rodas5P, &adaptive)),
     ];
     let a = Matrix2::new(-1.0, 1.0, 0.0, -2.0);
     for (name, s) in &runs {
@@ -186,8 +186,8 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
         }};
     }
     check!("explicit euler, fixed", Euler, &fixed);
-    check!("dopri5, fixed", Rk45::default(), &fixed);
-    check!("dopri5, adaptive", Rk45::default(), &adaptive);
+    check!("dopri5, fixed", Rk45, &fixed);
+    check!("dopri5, adaptive", Rk45, &adaptive);
     check!(
         "implicit euler, fixed",
         ImplicitEuler::default().proportional(false),
@@ -215,12 +215,12 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
     assert!(n > 100, "{n} steps");
     replay!(
         "dopri5, adaptive",
-        Rk45::default(),
+        Rk45,
         &Options::default().rtol(1e-6).atol(1e-8)
     );
     replay!(
         "rodas5p, adaptive",
-        Rodas5P::default(),
+        Rodas5P,
         &Options::default().rtol(1e-6).atol(1e-8)
     );
     // with free steps a first-order method's steps depend on μ and x₀ at the level of its
@@ -241,8 +241,8 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
     assert!(e > 1e-6 && e < 1e-3, "implicit euler, free steps: {e:e}");
     check!("bdf, fixed", Bdf::default(), &fixed);
     check!("bdf, adaptive", Bdf::default(), &adaptive);
-    check!("rodas5p, fixed", Rodas5P::default(), &fixed);
-    check!("rodas5p, adaptive", Rodas5P::default(), &adaptive);
+    check!("rodas5p, fixed", Rodas5P, &fixed);
+    check!("rodas5p, adaptive", Rodas5P, &adaptive);
     check!("auto, adaptive", Auto::default(), &adaptive);
 }
 
@@ -251,14 +251,14 @@ fn x_part_is_the_plain_solve_bit_for_bit_for_explicit_methods() {
     let f = vdp();
     let p = Problem::new(&f, vector![2.0, 0.0], (0.0, 2.0));
     let o = Options::default().rtol(1e-8).atol(1e-10);
-    let plain = p.solve(Rk45::default(), &o).unwrap();
-    let s = sens(&p, Rk45::default(), &o);
+    let plain = p.solve(Rk45, &o).unwrap();
+    let s = sens(&p, Rk45, &o);
     assert_eq!(plain.t, s.t);
     assert_eq!(plain.x, s.x);
     // with the sensitivities in the error control the steps change (more of them here)
     let c = sensitivity::solve(
         &p,
-        Rk45::default(),
+        Rk45,
         &o,
         &SensitivityOptions::default().error_control(true),
     )
@@ -279,7 +279,7 @@ fn unicycle_exact_flow_sensitivities_are_analytic() {
     let x0 = vector![1.0, -2.0, 0.4];
     let p = Problem::new(unicycle::model(), x0, (0.0, 5.0)).controls(controls);
     let ex = sens(&p, Exact::new(unicycle::ExactFlow), &Options::default());
-    let rk = sens(&p, Rk45::default(), &Options::default().rtol(1e-12).atol(1e-14));
+    let rk = sens(&p, Rk45, &Options::default().rtol(1e-12).atol(1e-14));
     for s in [&ex, &rk] {
         let k = s.t.len() - 1;
         let x = s.x[k];
@@ -307,8 +307,8 @@ fn closed_form_parameter_sensitivity() {
     let f = model!(|_, x: [S; 1], p: [S; 1] = [0.5]| vector![-(p[0] * x[0])]);
     let p = Problem::new(&f, vector![2.0], (0.0, 3.0));
     for s in [
-        sens(&p, Rk45::default(), &Options::default().rtol(1e-12).atol(1e-14)),
-        sens(&p, Rodas5P::default(), &Options::default().rtol(1e-12).atol(1e-14)),
+        sens(&p, Rk45, &Options::default().rtol(1e-12).atol(1e-14)),
+        sens(&p, Rodas5P, &Options::default().rtol(1e-12).atol(1e-14)),
     ] {
         for k in 0..s.t.len() {
             let t = s.t[k];
@@ -323,7 +323,7 @@ fn bad_requests_are_typed_errors() {
     let f = vdp();
     let ev = Event::new(|_t, x: &SVector<f64, 2>| x[0]);
     let p = Problem::new(&f, vector![2.0, 0.0], (0.0, 2.0)).event(ev);
-    let e = sensitivity::solve(&p, Rk45::default(), &Options::default(), &SensitivityOptions::default()).unwrap_err();
+    let e = sensitivity::solve(&p, Rk45, &Options::default(), &SensitivityOptions::default()).unwrap_err();
     assert!(matches!(e, Error::InvalidInput { what: "events", .. }), "{e}");
     // exact flows know nothing of a model's parameters
     let g = model!(|_, x: [S; 3], u: [2], p: [S; 1] = [1.0]| vector![
@@ -354,7 +354,7 @@ fn bad_requests_are_typed_errors() {
     // (x' = p·x², x₀ = 1: x = 1/(1 − t) blows up at t = 1)
     let h = model!(|_, x: [S; 1], p: [S; 1] = [1.0]| vector![p[0] * x[0] * x[0]]);
     let r = Problem::new(&h, vector![1.0], (0.0, 2.0));
-    let e = sensitivity::solve(&r, Rk45::default(), &Options::default(), &SensitivityOptions::default()).unwrap_err();
+    let e = sensitivity::solve(&r, Rk45, &Options::default(), &SensitivityOptions::default()).unwrap_err();
     assert!(
         matches!(e, Error::StepSizeUnderflow { t, .. } | Error::NonFinite { t, .. } if (t - 1.0).abs() < 1e-3),
         "{e}"
@@ -370,7 +370,7 @@ fn dynamic_state_with_parameters() {
     let p = Problem::new(&f, x0, (0.0, 1.0));
     let s = sensitivity::solve(
         &p,
-        Rk45::default(),
+        Rk45,
         &Options::default().rtol(1e-12).atol(1e-14),
         &SensitivityOptions::default(),
     )
@@ -413,8 +413,8 @@ fn parameters_only() {
     let p = Problem::new(&f, vector![2.0, 0.0], (0.0, 4.0));
     let only = SensitivityOptions::default().wrt(Wrt::Params);
     let o = Options::default().rtol(1e-9).atol(1e-11);
-    let a = sensitivity::solve(&p, Rk45::default(), &o, &SensitivityOptions::default()).unwrap();
-    let b = sensitivity::solve(&p, Rk45::default(), &o, &only).unwrap();
+    let a = sensitivity::solve(&p, Rk45, &o, &SensitivityOptions::default()).unwrap();
+    let b = sensitivity::solve(&p, Rk45, &o, &only).unwrap();
     assert_eq!((b.s(0).nrows(), b.s(0).ncols()), (2, 1));
     assert_eq!(b.wrt_x0(0).ncols(), 0);
     assert_eq!(b.wrt_params(0), DMatrix::zeros(2, 1));
@@ -432,7 +432,7 @@ fn parameters_only() {
             .with_params(&[mu])
             .unwrap();
         let q = Problem::new(&g, vector![2.0, 0.0], (0.0, 4.0));
-        *q.solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-14))
+        *q.solve(Rk45, &Options::default().rtol(1e-12).atol(1e-14))
             .unwrap()
             .last()
             .1
@@ -463,7 +463,7 @@ fn parameters_only() {
     }
     // a model without parameters has nothing to differentiate by
     let q = Problem::new(linear(), vector![1.0, 1.0], (0.0, 1.0));
-    let e = sensitivity::solve(&q, Rk45::default(), &o, &only).unwrap_err();
+    let e = sensitivity::solve(&q, Rk45, &o, &only).unwrap_err();
     assert!(matches!(e, Error::InvalidInput { what: "wrt", .. }), "{e}");
 }
 
@@ -592,8 +592,8 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     let x0 = vector![0.1, -0.2, 0.3];
     let p = Problem::new(&dd, x0, span).controls(log.clone());
     let o = Options::default().rtol(1e-7).atol(1e-9);
-    let s = sens(&p, Rk45::default(), &o);
-    let plain = p.solve(Rk45::default(), &o).unwrap();
+    let s = sens(&p, Rk45, &o);
+    let plain = p.solve(Rk45, &o).unwrap();
     assert_eq!((&plain.t, &plain.x), (&s.t, &s.x));
     assert_eq!(
         (s.stats.accepted, s.stats.rejected),
@@ -612,7 +612,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     let inner = s.t[1..s.t.len() - 1].to_vec();
     let replay = Options::default().fixed(100.0).breakpoints(inner);
     let ctl = SensitivityOptions::default().error_control(true);
-    let aug = sensitivity::solve(&p, Rk45::default(), &replay, &ctl).unwrap();
+    let aug = sensitivity::solve(&p, Rk45, &replay, &ctl).unwrap();
     assert_eq!(aug.t, s.t);
     for k in 0..s.t.len() {
         let e = max_rel(&s.s(k), &aug.s(k));
@@ -623,7 +623,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
         let m = diff_drive(g).unwrap();
         *Problem::new(&m, x0, span)
             .controls(log.clone())
-            .solve(Rk45::default(), &replay)
+            .solve(Rk45, &replay)
             .unwrap()
             .last()
             .1
@@ -634,10 +634,10 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     // output times: x as the plain solve's dense output, S as the augmented one's
     let at: Vec<f64> = (1..40).map(|k| 0.5 * k as f64 - 0.013).collect();
     let o_at = o.clone().save(Save::At(at.clone()));
-    let si = sensitivity::solve(&p, Rk45::default(), &o_at, &SensitivityOptions::default()).unwrap();
-    let pi = p.solve(Rk45::default(), &o_at).unwrap();
+    let si = sensitivity::solve(&p, Rk45, &o_at, &SensitivityOptions::default()).unwrap();
+    let pi = p.solve(Rk45, &o_at).unwrap();
     assert_eq!((&si.t, &si.x), (&pi.t, &pi.x));
-    let ai = sensitivity::solve(&p, Rk45::default(), &replay.clone().save(Save::At(at.clone())), &ctl).unwrap();
+    let ai = sensitivity::solve(&p, Rk45, &replay.clone().save(Save::At(at.clone())), &ctl).unwrap();
     for (k, ta) in at.iter().enumerate() {
         let e = max_rel(&si.s(k), &ai.s(k));
         assert!(e < 1e-12, "t = {ta}: interpolated S {e:e}");
@@ -645,7 +645,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     // the end alone and every 4th step: the same S as every step
     let se = sensitivity::solve(
         &p,
-        Rk45::default(),
+        Rk45,
         &o.clone().save(Save::End),
         &SensitivityOptions::default(),
     )
@@ -653,7 +653,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
     assert_eq!((se.t.len(), se.last_s()), (2, s.last_s()));
     let s4 = sensitivity::solve(
         &p,
-        Rk45::default(),
+        Rk45,
         &o.clone().save(Save::Every(4)),
         &SensitivityOptions::default(),
     )
@@ -733,7 +733,7 @@ fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
         }
     }
     let unresolved = |e: &Error| matches!(e, Error::SensitivityUnresolved { ratio, .. } if *ratio > 0.1);
-    check("rk45", sensitivity::solve(&p, Rk45::default(), &o, &off), unresolved);
+    check("rk45", sensitivity::solve(&p, Rk45, &o, &off), unresolved);
     check(
         "implicit euler",
         sensitivity::solve(&p, ImplicitEuler::default().proportional(false), &o, &off),
@@ -742,7 +742,7 @@ fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
     check("bdf", sensitivity::solve(&p, Bdf::default(), &o, &off), unresolved);
     check(
         "rodas5p",
-        sensitivity::solve(&p, Rodas5P::default(), &o, &off),
+        sensitivity::solve(&p, Rodas5P, &o, &off),
         unresolved,
     );
     check("auto", sensitivity::solve(&p, Auto::default(), &o, &off), unresolved);
@@ -751,7 +751,7 @@ fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
     let overflow = |e: &Error| matches!(e, Error::NonFinite { .. } | Error::StepSizeUnderflow { .. });
     check(
         "exponential euler",
-        sensitivity::solve(&p, ExponentialEuler::default(), &o, &off),
+        sensitivity::solve(&p, ExponentialEuler, &o, &off),
         overflow,
     );
     // S in the error control: S is followed until it overflows
@@ -763,17 +763,17 @@ fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
     };
     check(
         "rk45, S controlled",
-        sensitivity::solve(&p, Rk45::default(), &o, &on),
+        sensitivity::solve(&p, Rk45, &o, &on),
         stops,
     );
     check(
         "rodas5p, S controlled",
-        sensitivity::solve(&p, Rodas5P::default(), &o, &on),
+        sensitivity::solve(&p, Rodas5P, &o, &on),
         stops,
     );
     // a span the steps can resolve: S = e^{710·0.01} to the tolerance, with error control
     let q = Problem::new(&f, vector![0.0], (0.0, 0.01));
-    let s = sensitivity::solve(&q, Rk45::default(), &Options::default().rtol(1e-8), &on).unwrap();
+    let s = sensitivity::solve(&q, Rk45, &Options::default().rtol(1e-8), &on).unwrap();
     let want = (7.1f64).exp();
     assert!(
         (s.last_s()[(0, 0)] / want - 1.0).abs() < 1e-6,
@@ -782,7 +782,7 @@ fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
     );
     // and without it: S rides on steps chosen for x ≡ 0, refused as well
     assert!(matches!(
-        sensitivity::solve(&q, Rk45::default(), &Options::default().rtol(1e-8), &off),
+        sensitivity::solve(&q, Rk45, &Options::default().rtol(1e-8), &off),
         Err(Error::SensitivityUnresolved { .. })
     ));
 }

@@ -194,7 +194,7 @@ fn bdf_sparse_equals_dense() {
 
 #[test]
 fn rodas5p_sparse_equals_dense() {
-    let r = |l| move || run(Rodas5P::default(), l, 1e-6, 10.0);
+    let r = |l| move || run(Rodas5P, l, 1e-6, 10.0);
     near_reference(
         "rodas5p",
         same("rodas5p", r(LinearSolver::Sparse), r(LinearSolver::Dense)),
@@ -242,7 +242,7 @@ fn forced_sparse_without_sparse_jacobian_is_refused() {
     for e in [
         p.solve(Bdf::default(), &o).unwrap_err(),
         p.solve(ImplicitEuler::default(), &o).unwrap_err(),
-        p.solve(Rodas5P::default(), &o).unwrap_err(),
+        p.solve(Rodas5P, &o).unwrap_err(),
     ] {
         match e {
             Error::InvalidInput { what, reason } => {
@@ -515,8 +515,8 @@ fn brusselator_end_state_matches_scipy_radau() {
         ),
         (
             "rodas5p",
-            p.solve(Rodas5P::default(), &o).unwrap(),
-            p.solve(Rodas5P::default(), &o.clone().linear_solver(LinearSolver::Dense))
+            p.solve(Rodas5P, &o).unwrap(),
+            p.solve(Rodas5P, &o.clone().linear_solver(LinearSolver::Dense))
                 .unwrap(),
         ),
     ] {
@@ -525,7 +525,7 @@ fn brusselator_end_state_matches_scipy_radau() {
     }
     let tight = p
         .solve(
-            Rodas5P::default(),
+            Rodas5P,
             &Options::default().rtol(1e-11).atol(1e-11).save(Save::End),
         )
         .unwrap();
@@ -533,7 +533,7 @@ fn brusselator_end_state_matches_scipy_radau() {
     println!("rodas5p at 1e-11: {e:.3e}");
     assert!(e < 1e-9, "{e:e}");
     let book = Problem::new(&sys, brusselator_y0_book(N), (0.0, 10.0))
-        .solve(Rodas5P::default(), &o)
+        .solve(Rodas5P, &o)
         .unwrap();
     assert!(ref_error(book.last().1) > 0.1, "the book's amplitude ends elsewhere");
 }

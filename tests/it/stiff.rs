@@ -45,7 +45,7 @@ fn van_der_pol_mu_1000_implicit_finishes_rk45_struggles() {
     let y1 = ie.last().1[0];
     assert!(y1 < -1.0 && y1 > -2.1, "y1(3000) = {y1}");
     // DP5 is pinned by stability (|hλ| ≤ 3.3 with λ ≈ −3000 on the slow branches)
-    let rk = p.solve(Rk45::default(), &opts.clone().max_steps(5_000_000)).unwrap();
+    let rk = p.solve(Rk45, &opts.clone().max_steps(5_000_000)).unwrap();
     let rk_steps = rk.stats.accepted + rk.stats.rejected;
     assert!(
         rk_steps >= 10 * ie_steps,
@@ -61,7 +61,7 @@ fn van_der_pol_mu_1000_implicit_finishes_rk45_struggles() {
     );
     // with the default step limit the run stops with a typed error, not a hang
     assert!(matches!(
-        p.solve(Rk45::default(), &opts),
+        p.solve(Rk45, &opts),
         Err(Error::MaxSteps { steps: 100_000, .. })
     ));
 }

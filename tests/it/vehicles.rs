@@ -27,7 +27,7 @@ fn exact_vs_rk45<const N: usize>(
     let ex = p.solve(Exact::new(flow), &Options::default()).unwrap();
     assert_eq!(ex.t.len(), c.times().len(), "one exact step per interval");
     let rk = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap();
     for (t, x) in ex.t.iter().zip(&ex.x) {
         let k =
@@ -80,7 +80,7 @@ fn carlike_midpoint_flow_is_second_order() {
     .unwrap();
     let p = Problem::new(carlike::model(2.5), vector![0.0, 0.0, 0.0, 0.05], (0.0, 2.0)).controls(c);
     let reference = *p
-        .solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap()
         .last()
         .1;
@@ -231,7 +231,7 @@ fn inputs_as_a_closure_of_time() {
     let p = Problem::new(&f, vector![0.0, 0.0, 0.0], (0.0, 3.0));
     // θ(t) = (v/L)∫tan(sin s) ds: check θ against an independent quadrature
     let sol = p
-        .solve(Rk45::default(), &Options::default().rtol(1e-12).atol(1e-12))
+        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
         .unwrap();
     let n = 200_000;
     let quad: f64 = (0..n)
@@ -272,6 +272,6 @@ fn inputs_as_a_closure_of_time() {
         let order = fit_order(&hs, e).unwrap();
         assert!((order - 1.0).abs() <= 0.1, "{name} order {order}: {e:?}");
     }
-    let dp = err(p.solve(Rk45::default(), &Options::default().fixed(0.05)).unwrap());
+    let dp = err(p.solve(Rk45, &Options::default().fixed(0.05)).unwrap());
     assert!(dp < 1e-9, "fixed-step DP5 error {dp}");
 }

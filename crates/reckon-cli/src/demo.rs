@@ -137,11 +137,11 @@ pub fn run(out: &mut dyn Write) -> Res {
     t.row(Euler, "h = 0.001", &fixed(0.001))?;
     t.row(ImplicitEuler::default(), "h = 0.01", &fixed(0.01))?;
     t.row(ImplicitEuler::default(), "tol = 1e-3", &tight(1e-3))?;
-    t.row(Rk45::default(), "h = 0.1", &fixed(0.1))?;
-    t.row(Rk45::default(), "tol = 1e-6", &tight(1e-6))?;
-    t.row(Rk45::default(), "tol = 1e-10", &tight(1e-10))?;
+    t.row(Rk45, "h = 0.1", &fixed(0.1))?;
+    t.row(Rk45, "tol = 1e-6", &tight(1e-6))?;
+    t.row(Rk45, "tol = 1e-10", &tight(1e-10))?;
     // linear: exponential Euler's one step is the matrix exponential
-    t.row(ExponentialEuler::default(), "h = 5", &fixed(5.0))?;
+    t.row(ExponentialEuler, "h = 5", &fixed(5.0))?;
 
     let p = Problem::new(sin_u(), vector![0.5], (0.0, 5.0));
     let mut t = table(
@@ -153,8 +153,8 @@ pub fn run(out: &mut dyn Write) -> Res {
     )?;
     t.row(Euler, "h = 0.01", &fixed(0.01))?;
     t.row(ImplicitEuler::default(), "h = 0.01", &fixed(0.01))?;
-    t.row(Rk45::default(), "h = 0.1", &fixed(0.1))?;
-    t.row(Rk45::default(), "tol = 1e-10", &tight(1e-10))?;
+    t.row(Rk45, "h = 0.1", &fixed(0.1))?;
+    t.row(Rk45, "tol = 1e-10", &tight(1e-10))?;
 
     let p = Problem::new(stiff_cosine(), vector![1.0], (0.0, 2.0));
     let mut t = table(
@@ -168,17 +168,17 @@ pub fn run(out: &mut dyn Write) -> Res {
     t.row(Euler, "h = 0.0021", &fixed(0.0021))?;
     t.row(ImplicitEuler::default(), "h = 0.1", &fixed(0.1))?;
     t.row(ImplicitEuler::default(), "tol = 1e-3", &tight(1e-3))?;
-    t.row(Rk45::default(), "tol = 1e-6", &tight(1e-6))?;
+    t.row(Rk45, "tol = 1e-6", &tight(1e-6))?;
     t.row(Bdf::default(), "tol = 1e-6", &tight(1e-6))?;
-    t.row(Rodas5P::default(), "tol = 1e-6", &tight(1e-6))?;
+    t.row(Rodas5P, "tol = 1e-6", &tight(1e-6))?;
     t.row(Auto::default(), "tol = 1e-6", &tight(1e-6))?;
-    t.row(ExponentialEuler::default(), "tol = 1e-6", &tight(1e-6))?;
+    t.row(ExponentialEuler, "tol = 1e-6", &tight(1e-6))?;
 
     let y0 = arenstorf_y0();
     let p = Problem::new(arenstorf(), y0, (0.0, ARENSTORF_T));
     let mut t = table(out, "Arenstorf orbit, one period (exact: returns to y0)", &p, y0, 1.0)?;
     for tol in [1e-6, 1e-8, 1e-10, 1e-12] {
-        t.row(Rk45::default(), &format!("tol = {tol:e}"), &tight(tol))?;
+        t.row(Rk45, &format!("tol = {tol:e}"), &tight(tol))?;
     }
 
     let controls = unicycle_scenario()?;
@@ -199,9 +199,9 @@ pub fn run(out: &mut dyn Write) -> Res {
     t.row(Euler, "h = 0.1", &fixed(0.1))?;
     t.row(Euler, "h = 0.01", &fixed(0.01))?;
     t.row(ImplicitEuler::default(), "h = 0.01", &fixed(0.01))?;
-    t.row(Rk45::default(), "h = 0.1", &fixed(0.1))?;
-    t.row(Rk45::default(), "tol = 1e-10", &tight(1e-10))?;
-    t.row(ExponentialEuler::default(), "h = 0.1", &fixed(0.1))?;
+    t.row(Rk45, "h = 0.1", &fixed(0.1))?;
+    t.row(Rk45, "tol = 1e-10", &tight(1e-10))?;
+    t.row(ExponentialEuler, "h = 0.1", &fixed(0.1))?;
 
     // the stiff problems: every stiff method, RK45 with a step cap
     let capped = |o: Options| o.max_steps(RK45_STIFF_CAP);
@@ -218,11 +218,11 @@ pub fn run(out: &mut dyn Write) -> Res {
     for tol in [1e-4, 1e-6, 1e-8] {
         let setting = format!("tol = {tol:e}");
         t.row(Bdf::default(), &setting, &tight(tol))?;
-        t.row(Rodas5P::default(), &setting, &tight(tol))?;
+        t.row(Rodas5P, &setting, &tight(tol))?;
         t.row(Auto::default(), &setting, &tight(tol))?;
     }
-    t.row(ExponentialEuler::default(), "tol = 1e-4", &tight(1e-4))?;
-    t.row(Rk45::default(), "tol = 1e-6", &capped(tight(1e-6)))?;
+    t.row(ExponentialEuler, "tol = 1e-4", &tight(1e-4))?;
+    t.row(Rk45, "tol = 1e-6", &capped(tight(1e-6)))?;
 
     let p = Problem::new(robertson(), vector![1.0, 0.0, 0.0], (0.0, 1e11));
     let mut t = table(
@@ -237,11 +237,11 @@ pub fn run(out: &mut dyn Write) -> Res {
     for tol in [1e-4, 1e-6, 1e-8] {
         let setting = format!("rtol = {tol:e}");
         t.row(Bdf::default(), &setting, &rober(tol))?;
-        t.row(Rodas5P::default(), &setting, &rober(tol))?;
+        t.row(Rodas5P, &setting, &rober(tol))?;
         t.row(Auto::default(), &setting, &rober(tol))?;
     }
-    t.row(ExponentialEuler::default(), "rtol = 1e-4", &rober(1e-4))?;
-    t.row(Rk45::default(), "rtol = 1e-4", &capped(rober(1e-4)))?;
+    t.row(ExponentialEuler, "rtol = 1e-4", &rober(1e-4))?;
+    t.row(Rk45, "rtol = 1e-4", &capped(rober(1e-4)))?;
 
     let p = Problem::new(hires(), hires_y0(), (0.0, HIRES_T));
     let mut t = table(
@@ -255,11 +255,11 @@ pub fn run(out: &mut dyn Write) -> Res {
     for tol in [1e-4, 1e-6, 1e-8] {
         let setting = format!("tol = {tol:e}");
         t.row(Bdf::default(), &setting, &tight(tol))?;
-        t.row(Rodas5P::default(), &setting, &tight(tol))?;
+        t.row(Rodas5P, &setting, &tight(tol))?;
         t.row(Auto::default(), &setting, &tight(tol))?;
     }
-    t.row(ExponentialEuler::default(), "tol = 1e-4", &tight(1e-4))?;
-    t.row(Rk45::default(), "tol = 1e-6", &capped(tight(1e-6)))?;
+    t.row(ExponentialEuler, "tol = 1e-4", &tight(1e-4))?;
+    t.row(Rk45, "tol = 1e-6", &capped(tight(1e-6)))?;
     writeln!(
         t.out,
         "\nRK45's step on the stiff problems is pinned by stability (|hλ| ≤ 3.3), not accuracy: on Van der Pol and \

@@ -129,12 +129,12 @@ where
     fn reference_solution(&self) -> Result<Solution<D>> {
         if !self.rk_reference {
             return self.problem.solve(
-                Rodas5P::default(),
+                Rodas5P,
                 &Options::default().rtol(1e-10).atol(1e-10).dense(false),
             );
         }
         self.problem.solve(
-            Rk45::default(),
+            Rk45,
             &Options::default()
                 .rtol(1e-12)
                 .atol(1e-12)
@@ -203,12 +203,12 @@ where
             opts.clone()
         };
         vec![
-            history(&self.problem, Rk45::default(), &rk45),
+            history(&self.problem, Rk45, &rk45),
             // per-step control, as RK45's: the two step counts then compare the step
             // that accuracy allows with the step that stability allows
             history(&self.problem, ImplicitEuler::default().proportional(false), &opts),
             history(&self.problem, Bdf::default(), &opts),
-            history(&self.problem, Rodas5P::default(), &opts),
+            history(&self.problem, Rodas5P, &opts),
             history(&self.problem, Auto::default(), &opts),
         ]
     }

@@ -209,9 +209,9 @@ where
     match args.method {
         MethodName::Euler => stream(&problem, Euler, &fixed, rdr, next, out),
         MethodName::ImplicitEuler => stream(&problem, ImplicitEuler::default(), &fixed, rdr, next, out),
-        MethodName::Rk45 => stream(&problem, Rk45::default(), &adaptive, rdr, next, out),
+        MethodName::Rk45 => stream(&problem, Rk45, &adaptive, rdr, next, out),
         MethodName::Bdf => stream(&problem, Bdf::default(), &adaptive, rdr, next, out),
-        MethodName::Rodas5p => stream(&problem, Rodas5P::default(), &adaptive, rdr, next, out),
+        MethodName::Rodas5p => stream(&problem, Rodas5P, &adaptive, rdr, next, out),
         MethodName::Auto => stream(&problem, Auto::default(), &adaptive, rdr, next, out),
         MethodName::Exact => {
             let opts = match args.dt {

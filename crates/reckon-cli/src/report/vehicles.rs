@@ -103,7 +103,7 @@ where
     let ex_end = *exact.last().1;
     let euler = p.solve(Euler, &Options::default().fixed(dt))?;
     let ie = p.solve(ImplicitEuler::default(), &Options::default().fixed(dt))?;
-    let rk = p.solve(Rk45::default(), &Options::default().rtol(1e-6).atol(1e-9).dense(true))?;
+    let rk = p.solve(Rk45, &Options::default().rtol(1e-6).atol(1e-9).dense(true))?;
     // the exact flow evaluated inside every interval (it is exact for any step), and
     // RK45 from its dense output: both drawn as the curves they are, not as chords
     let exact_curve = flow_curve(&flow, &exact, &controls, 40);

@@ -200,7 +200,7 @@ fn simulate_bicycle_and_carlike_with_parameters() {
     let sol = Problem::new(carlike::model(2.5), vector![0.0, 0.0, 0.0, 0.0], (0.0, 4.0))
         .controls(controls)
         .solve(
-            Rk45::default(),
+            Rk45,
             &Options::default().rtol(1e-10).atol(1e-10).dense(false),
         )
         .unwrap();

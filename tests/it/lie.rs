@@ -1,11 +1,16 @@
-//! Lie groups SO(3), SE(2), SE(3): group identities on random elements (proptest),
+//! Lie groups and IMU preintegration: group identities on random elements (proptest),
 //! the Jacobians against central differences of `exp`/`log` and against their defining
 //! series `Σ (±ad)ⁿ/(n+1)!`, `exp` against the matrix exponential, all near 0, at the
-//! Taylor switch and near π.
+//! Taylor switch and near π; preintegration against GTSAM's reference values
+//! (`tests/golden/lie/gtsam_preintegration.json`, made by
+//! `docs/lie/gtsam_preintegration.py`), against closed forms and against reckon's own
+//! strapdown integration.
 
 use nalgebra::{Matrix2, Matrix3, Matrix4, Matrix6, SMatrix, Vector3, Vector6, vector};
 use proptest::prelude::*;
 use reckon::lie::{Se2, Se3, So3, hat};
+use reckon::reckoning::imu::{ImuSample, Nav, strapdown};
+use reckon::reckoning::preintegration::{Bias, Preintegrated, PreintegrationParams};
 use std::f64::consts::PI;
 
 // ---------------------------------------------------------------- references
@@ -379,4 +384,253 @@ proptest! {
         prop_assert!(((g * h).matrix() - g.matrix() * h.matrix()).amax() < 1e-13);
         prop_assert!((g.inverse().matrix() - g.matrix().try_inverse().unwrap()).amax() < 1e-13);
     }
+}
+
+// ---------------------------------------------------------------- preintegration
+
+/// Max over entries of |a − b| / max|b|.
+fn rel<const R: usize, const C: usize>(a: &SMatrix<f64, R, C>, b: &SMatrix<f64, R, C>) -> f64 {
+    (a - b).amax() / b.amax()
+}
+
+mod golden {
+    use nalgebra::{Matrix3, SMatrix, Vector3};
+    use serde_json::Value;
+
+    pub fn v3(v: &Value) -> Vector3<f64> {
+        Vector3::from_iterator(v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
+    }
+
+    pub fn mat<const N: usize>(v: &Value) -> SMatrix<f64, N, N> {
+        let rows = v.as_array().unwrap();
+        SMatrix::<f64, N, N>::from_fn(|i, j| rows[i][j].as_f64().unwrap())
+    }
+
+    pub fn m3(v: &Value) -> Matrix3<f64> {
+        mat::<3>(v)
+    }
+
+    pub fn load() -> Value {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/golden/lie/gtsam_preintegration.json"
+        );
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    }
+}
+
+#[test]
+fn preintegration_matches_gtsam_manifold_preintegration() {
+    use golden::*;
+    let doc = load();
+    assert_eq!(doc["gtsam_version"], "4.3.0");
+    let cases = doc["cases"].as_array().unwrap();
+    assert_eq!(cases.len(), 4);
+    let (mut inc, mut cov, mut jac, mut pred, mut tangent) = (0f64, 0f64, 0f64, 0f64, f64::INFINITY);
+    for c in cases {
+        let diag = |k: &str| Matrix3::from_diagonal(&v3(&c[k]).component_mul(&v3(&c[k])));
+        let params = PreintegrationParams::with_gravity(v3(&c["gravity"]))
+            .unwrap()
+            .gyro(diag("gyro_sigma"))
+            .unwrap()
+            .accel(diag("accel_sigma"))
+            .unwrap()
+            .integration(diag("integration_sigma"))
+            .unwrap();
+        let bias = |b: &serde_json::Value| Bias {
+            gyro: v3(&b["gyro"]),
+            accel: v3(&b["accel"]),
+        };
+        let mut pim = Preintegrated::new(params, bias(&c["bias_hat"]));
+        for s in c["samples"].as_array().unwrap() {
+            pim.integrate(&v3(&s["gyro"]), &v3(&s["accel"]), s["dt"].as_f64().unwrap())
+                .unwrap();
+        }
+        assert!((pim.delta_t() - c["delta_t"].as_f64().unwrap()).abs() < 1e-12);
+        let e = (pim.delta_r().matrix() - m3(&c["delta_R"]))
+            .amax()
+            .max((pim.delta_p() - v3(&c["delta_p"])).amax())
+            .max((pim.delta_v() - v3(&c["delta_v"])).amax());
+        inc = inc.max(e);
+        // the tangent-space default class is a different discretisation
+        tangent = tangent.min((pim.delta_r().matrix() - m3(&c["tangent_default_class"]["delta_R"])).amax());
+
+        // covariance, block by block
+        let ours = pim.covariance_gtsam();
+        let theirs = mat::<9>(&c["cov_gtsam"]);
+        for bi in 0..3 {
+            for bj in 0..3 {
+                let a = ours.fixed_view::<3, 3>(3 * bi, 3 * bj).into_owned();
+                let b = theirs.fixed_view::<3, 3>(3 * bi, 3 * bj).into_owned();
+                cov = cov.max(rel(&a, &b));
+            }
+        }
+        let j = pim.bias_jacobians();
+        let bj = &c["bias_jacobians"];
+        for (a, k) in [
+            (j.d_rotation_d_gyro, "dR_dbg"),
+            (j.d_position_d_accel, "dp_dba"),
+            (j.d_position_d_gyro, "dp_dbg"),
+            (j.d_velocity_d_accel, "dv_dba"),
+            (j.d_velocity_d_gyro, "dv_dbg"),
+        ] {
+            jac = jac.max(rel(&a, &m3(&bj[k])));
+        }
+        let p = &c["predict"];
+        let nav = Nav {
+            r: m3(&p["R_i"]),
+            v: v3(&p["v_i"]),
+            p: v3(&p["p_i"]),
+        };
+        let out = pim.predict(&nav, &bias(&p["bias_i"]));
+        pred = pred
+            .max((out.r - m3(&p["R_j"])).amax())
+            .max((out.p - v3(&p["p_j"])).amax())
+            .max((out.v - v3(&p["v_j"])).amax());
+    }
+    eprintln!(
+        "vs GTSAM 4.3.0: increments {inc:.1e}, covariance {cov:.1e} rel, bias Jacobians {jac:.1e} rel, predict {pred:.1e}; tangent class ≥ {tangent:.1e} away"
+    );
+    assert!(inc < 1e-9, "increments {inc:e}");
+    assert!(cov < 1e-6, "covariance {cov:e}");
+    assert!(jac < 1e-6, "bias Jacobians {jac:e}");
+    assert!(pred < 1e-9, "predict {pred:e}");
+    assert!(
+        tangent > 1e-7,
+        "the reference is the manifold class, not the tangent one"
+    );
+}
+
+fn params(sg: f64, sa: f64, si: f64) -> PreintegrationParams {
+    PreintegrationParams::up(9.81)
+        .unwrap()
+        .gyro(Matrix3::identity() * sg * sg)
+        .unwrap()
+        .accel(Matrix3::identity() * sa * sa)
+        .unwrap()
+        .integration(Matrix3::identity() * si * si)
+        .unwrap()
+}
+
+#[test]
+fn preintegration_covariance_of_a_still_imu_is_the_random_walk() {
+    // free fall, no rotation (f = 0, so tilt errors do not enter δv): each sample adds
+    // σ²/dt·(dt, ½dt²) through B_a, so over n samples
+    // Σ_vv = σ²Δt, Σ_pv = σ²Δt²/2, Σ_pp = σ²(Δt³/3 − Δt·dt²/12), Σ_φφ = σ_g²Δt (exact sums)
+    let (sg, sa, n, dt) = (1e-3, 2e-2, 250, 0.004);
+    let mut pim = Preintegrated::new(params(sg, sa, 0.0), Bias::default());
+    for _ in 0..n {
+        pim.integrate(&Vector3::zeros(), &Vector3::zeros(), dt).unwrap();
+    }
+    let (t, s) = (n as f64 * dt, pim.covariance());
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs();
+    for i in 0..3 {
+        assert!(close(s[(i, i)], sg * sg * t));
+        assert!(close(s[(3 + i, 3 + i)], sa * sa * t));
+        assert!(close(s[(6 + i, 3 + i)], sa * sa * t * t / 2.0));
+        assert!(close(
+            s[(6 + i, 6 + i)],
+            sa * sa * (t * t * t / 3.0 - t * dt * dt / 12.0)
+        ));
+    }
+    // integration covariance adds Σ_int·Δt to the position block
+    let mut with = Preintegrated::new(params(sg, sa, 1e-3), Bias::default());
+    for _ in 0..n {
+        with.integrate(&Vector3::zeros(), &Vector3::zeros(), dt).unwrap();
+    }
+    assert!(((with.covariance() - s)[(7, 7)] - 1e-6 * t).abs() < 1e-18);
+}
+
+/// A coning, accelerating motion sampled at `n` points over 2 s.
+fn smooth_samples(n: usize) -> Vec<ImuSample> {
+    (0..=n)
+        .map(|k| {
+            let t = 2.0 * k as f64 / n as f64;
+            ImuSample {
+                t,
+                gyro: vector![0.4 * (3.0 * t).sin(), 0.3 * (2.0 * t).cos(), 0.8],
+                accel: vector![1.0 + 0.5 * (3.0 * t).sin(), 0.3 * t.cos(), 9.81 + 0.2 * t.sin()],
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn preintegration_predicts_what_strapdown_integrates() {
+    let nav0 = Nav {
+        r: So3::exp(&vector![0.1, -0.2, 0.7]).matrix(),
+        v: vector![1.0, 0.5, -0.2],
+        p: vector![3.0, -1.0, 2.0],
+    };
+    let zero = Vector3::zeros();
+    let mut errs = Vec::new();
+    for n in [1000, 10000] {
+        let s = smooth_samples(n);
+        let pim = Preintegrated::from_samples(params(1e-3, 1e-2, 0.0), Bias::default(), &s).unwrap();
+        let pred = pim.predict(&nav0, &Bias::default());
+        let sd = strapdown(&s, nav0, &zero, &zero).unwrap().last().unwrap().1;
+        // the rotation is the same product of exact steps
+        assert!((pred.r - sd.r).amax() < 1e-12, "{:e}", (pred.r - sd.r).amax());
+        // position and velocity: Forster holds ΔR over each step, strapdown averages the
+        // two ends, so they part by O(dt)
+        errs.push((pred.p - sd.p).norm().max((pred.v - sd.v).norm()));
+    }
+    let order = (errs[0] / errs[1]).log10();
+    eprintln!(
+        "preintegration vs strapdown: {:.2e} (n = 1000), {:.2e} (n = 10000), order {order:.3}",
+        errs[0], errs[1]
+    );
+    assert!((order - 1.0).abs() < 0.05, "first order in dt: {order}");
+    assert!(errs[1] < 4e-4, "{:e}", errs[1]);
+}
+
+#[test]
+fn bias_correction_is_first_order_in_the_bias_change() {
+    // re-integrating at b̂ + δb against the corrected increments: the error is O(|δb|²)
+    let s = smooth_samples(500);
+    let p = params(1e-3, 1e-2, 0.0);
+    let pim = Preintegrated::from_samples(p, Bias::default(), &s).unwrap();
+    let mut errs = Vec::new();
+    for scale in [1e-2, 1e-3] {
+        let b = Bias {
+            gyro: vector![0.5, -0.3, 0.2] * scale,
+            accel: vector![1.0, 2.0, -1.5] * scale,
+        };
+        let again = Preintegrated::from_samples(p, b, &s).unwrap();
+        let (dr, dv, dp) = pim.corrected(&b);
+        let e = (dr.inverse() * again.delta_r())
+            .log()
+            .norm()
+            .max((dv - again.delta_v()).norm())
+            .max((dp - again.delta_p()).norm());
+        // and the first-order term itself is large: the Jacobians matter
+        let e0 = (pim.delta_p() - again.delta_p()).norm();
+        assert!(e < 0.1 * e0, "{e:e} vs {e0:e}");
+        eprintln!("bias change ×{scale}: remainder {e:.2e}, first-order change {e0:.2e}");
+        errs.push(e);
+    }
+    let order = (errs[0] / errs[1]).log10();
+    assert!((order - 2.0).abs() < 0.05, "second-order remainder: {order}");
+}
+
+#[test]
+fn preintegration_rejects_bad_samples() {
+    let mut pim = Preintegrated::new(params(1e-3, 1e-2, 0.0), Bias::default());
+    assert!(pim.integrate(&Vector3::zeros(), &Vector3::zeros(), -0.1).is_err());
+    assert!(pim.integrate(&Vector3::zeros(), &Vector3::zeros(), f64::NAN).is_err());
+    assert!(
+        pim.integrate(&vector![f64::INFINITY, 0.0, 0.0], &Vector3::zeros(), 0.1)
+            .is_err()
+    );
+    assert_eq!(pim.delta_t(), 0.0);
+    let one = [ImuSample {
+        t: 0.0,
+        gyro: Vector3::zeros(),
+        accel: Vector3::zeros(),
+    }];
+    assert!(Preintegrated::from_samples(params(1e-3, 1e-2, 0.0), Bias::default(), &one).is_err());
+    let back = [one[0], ImuSample { t: -1.0, ..one[0] }];
+    assert!(Preintegrated::from_samples(params(1e-3, 1e-2, 0.0), Bias::default(), &back).is_err());
+    let asym = Matrix3::new(1.0, 0.5, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0);
+    assert!(PreintegrationParams::up(9.81).unwrap().accel(asym).is_err());
 }

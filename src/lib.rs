@@ -11,6 +11,7 @@ pub mod error;
 pub mod integrator;
 pub mod jacobian;
 pub mod kalman;
+pub mod lie;
 pub mod linalg;
 pub mod methods;
 pub mod model;

@@ -3,3 +3,4 @@ pub mod drift;
 pub mod encoder_sim;
 pub mod encoders;
 pub mod imu;
+pub mod preintegration;

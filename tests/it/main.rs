@@ -24,6 +24,7 @@ mod imu;
 mod jacobian;
 mod kalman;
 mod layers;
+mod lie;
 mod literals;
 mod lsq;
 mod lti;

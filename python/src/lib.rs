@@ -158,6 +158,22 @@ impl<'py> PyModel<'py> {
     }
 }
 
+/// An event function's return as a number: a float, or anything numpy reads as one value
+/// (a 0-d or 1-element array).
+fn event_value(r: &Bound<'_, PyAny>, asarray: &Bound<'_, PyAny>, t: f64) -> PyResult<f64> {
+    if let Ok(v) = r.extract::<f64>() {
+        return Ok(v);
+    }
+    let a = asarray.call1((r, "float64"))?;
+    if a.getattr("size")?.extract::<usize>()? == 1 {
+        return a.call_method0("item")?.extract();
+    }
+    Err(pyo3::exceptions::PyValueError::new_err(format!(
+        "an event function returned an array of shape {}, expected one number at t = {t}",
+        a.getattr("shape")?
+    )))
+}
+
 /// Refuse NaN and ±∞ in what `who` returned: `reckon.NonFinite` naming the component.
 fn check_finite(py: Python<'_>, v: &[f64], t: f64, who: &str) -> PyResult<()> {
     match v.iter().position(|x| !x.is_finite()) {
@@ -429,7 +445,7 @@ fn solve<'py>(
                 return f64::NAN;
             }
             let y = PyArray1::from_slice(model_ref.py, x.as_slice());
-            match g.call1((t, y)).and_then(|r| r.extract::<f64>()) {
+            match g.call1((t, y)).and_then(|r| event_value(&r, &model_ref.asarray, t)) {
                 Ok(v) => v,
                 Err(e) => {
                     model_ref.keep(e);

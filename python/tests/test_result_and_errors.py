@@ -234,3 +234,17 @@ def test_hierarchy_and_pickling():
     assert str(back) == "underflow"
     with pytest.raises(TypeError):
         reckon.MaxSteps("x", nonsense=1)
+
+
+def test_event_values_numpy_reads_as_one_number():
+    def one(t, y):
+        return np.array([y[0] - 0.5])
+
+    r = reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], events=one, rtol=1e-10, atol=1e-12)
+    close(r.t_events[0], [np.log(2.0)], 1e-9, 0)
+
+    def two(t, y):
+        return np.array([1.0, 2.0])
+
+    with pytest.raises(ValueError, match=r"event function returned an array of shape \(2,\)"):
+        reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], events=two)

@@ -254,7 +254,10 @@ def solve_ivp(
             reached = int(np.sum((t_eval - t_stop) * np.sign(tf - t0) <= 0))
             t, y = t[:reached], y[:, :reached]
 
-    if evs:
+    if evs and error is not None:  # no hits are kept from a failed run
+        t_events = [np.empty(0) for _ in evs]
+        y_events = [np.empty(0) for _ in evs]
+    elif evs:
         t_events = [te for te, _ in r["events"]]
         y_events = [ye for _, ye in r["events"]]
     else:

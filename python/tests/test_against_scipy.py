@@ -306,3 +306,27 @@ def test_dense_output_agrees_with_t_eval_for_every_method(method):
                      rtol=1e-10, atol=1e-10)
     loose = 2e-2 if method == "ExponentialEuler" else 1e-3
     close(r.y, s.y, loose, loose)
+
+
+@pytest.mark.parametrize("method", ["BDF", "Rodas5P", "Auto", "ExponentialEuler"])
+@pytest.mark.parametrize("jac", ["differences", "sparse"])
+def test_heat_equation_decays_as_its_eigenmode(method, jac):
+    # u_t = u_xx on (0, 1), u = 0 at both ends, N interior points: the sine mode is an
+    # eigenvector of the discrete Laplacian, so u(t) = e^{λt}·u(0), λ = −(4/h²)·sin²(πh/2)
+    import scipy.sparse
+
+    n = 40
+    h = 1.0 / (n + 1)
+    x = np.arange(1, n + 1) * h
+    lap = scipy.sparse.diags([np.ones(n - 1), -2 * np.ones(n), np.ones(n - 1)], [-1, 0, 1]) / h**2
+    dense = lap.toarray()
+    lam = -(4 / h**2) * np.sin(np.pi * h / 2) ** 2
+    u0 = np.sin(np.pi * x)
+    # ExponentialEuler is exact at its step ends, which can be far apart; between them its
+    # dense output (and so t_eval) is a cubic Hermite interpolant, not held to the tolerance
+    t_eval = None if method == "ExponentialEuler" else [0.05, 0.1, 0.2]
+    r = reckon.solve_ivp(lambda t, u: dense @ u, (0.0, 0.2), u0, method=method, t_eval=t_eval,
+                         jac=lap if jac == "sparse" else None, rtol=1e-8, atol=1e-12)
+    assert r.success and r.t[-1] == 0.2
+    close(r.y, np.outer(u0, np.exp(lam * r.t)), 1e-6 if t_eval else 1e-12, 1e-12)
+    assert r.jacobian == ("constant jac" if jac == "sparse" else "finite differences")

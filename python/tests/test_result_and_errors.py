@@ -248,3 +248,15 @@ def test_event_values_numpy_reads_as_one_number():
 
     with pytest.raises(ValueError, match=r"event function returned an array of shape \(2,\)"):
         reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], events=two)
+
+
+def test_failed_run_with_events_has_one_empty_array_per_event():
+    def g(t, y):
+        return y[0] - 3.0
+
+    r = reckon.solve_ivp(lambda t, y: y * y, (0.0, 2.0), [1.0], method="BDF", events=[g, g])
+    assert r.status == -1
+    # y = 1/(1 − t) crosses 3 at t = 2/3, before the blow-up at 1; that hit is lost with
+    # the rest of the run (the library returns no partial solution, docs/python.md)
+    assert len(r.t_events) == len(r.y_events) == 2
+    assert all(a.shape == (0,) for a in r.t_events + r.y_events)

@@ -7,7 +7,6 @@ here="$(cd "$(dirname "$0")" && pwd)"
 venv="$(mktemp -d)"
 trap 'rm -rf "$venv"' EXIT
 "${PYTHON:-python3}" -m venv "$venv"
-"$venv/bin/python" -m pip install --quiet --upgrade pip
 "$venv/bin/python" -m pip install --quiet "$here" pytest scipy numpy
 cargo fmt --check --manifest-path "$here/Cargo.toml"
 # from the tests folder, so that `import reckon` is the installed package, not ./reckon

@@ -260,3 +260,8 @@ def test_failed_run_with_events_has_one_empty_array_per_event():
     # the rest of the run (the library returns no partial solution, docs/python.md)
     assert len(r.t_events) == len(r.y_events) == 2
     assert all(a.shape == (0,) for a in r.t_events + r.y_events)
+
+
+def test_the_extension_is_abi3():
+    # one wheel for every CPython >= 3.10 (pyo3's abi3-py310)
+    assert reckon._reckon.__file__.endswith(".abi3.so") or reckon._reckon.__file__.endswith(".pyd")

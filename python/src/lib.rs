@@ -105,8 +105,10 @@ impl<'py> PyModel<'py> {
         match unsafe { arr.as_slice() } {
             Ok(s) => out.copy_from_slice(s),
             Err(_) => {
-                for (o, v) in out.iter_mut().zip(arr.to_vec()?) {
-                    *o = v;
+                // a strided view: element by element
+                let ro = arr.readonly();
+                for (o, v) in out.iter_mut().zip(ro.as_array().iter()) {
+                    *o = *v;
                 }
             }
         }

@@ -265,3 +265,16 @@ def test_failed_run_with_events_has_one_empty_array_per_event():
 def test_the_extension_is_abi3():
     # one wheel for every CPython >= 3.10 (pyo3's abi3-py310)
     assert reckon._reckon.__file__.endswith(".abi3.so") or reckon._reckon.__file__.endswith(".pyd")
+
+
+@pytest.mark.parametrize("convert", [list, tuple, lambda v: np.asarray(v, dtype=np.float32),
+                                     lambda v: np.asarray(v)[::1], lambda v: np.column_stack([v, v])[:, 0]])
+def test_any_array_like_return_of_floats(convert):
+    # lists, tuples, float32 and non-owning views are read as float64, as scipy's asarray does
+    r = reckon.solve_ivp(lambda t, y: convert([y[1], -y[0]]), (0.0, 1.0), [1.0, 0.0], rtol=1e-6, atol=1e-9)
+    close(r.y[:, -1], [np.cos(1.0), -np.sin(1.0)], 0, 1e-5)
+
+
+def test_integer_lists_are_read_as_floats():
+    r = reckon.solve_ivp(lambda t, y: [1, 2], (0.0, 1.0), [0, 0])
+    close(r.y[:, -1], [1.0, 2.0], 1e-12, 1e-12)

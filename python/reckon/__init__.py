@@ -1,0 +1,287 @@
+"""reckon from Python: ``solve_ivp`` with scipy's names, on reckon's methods.
+
+>>> import numpy as np, reckon
+>>> sol = reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], rtol=1e-10, atol=1e-12)
+>>> bool(abs(sol.y[0, -1] - np.exp(-1.0)) < 1e-9)
+True
+
+The Python function is called back for every right-hand side. The Jacobian the
+implicit methods need is ``jac`` when given (a callable or a constant array), otherwise
+forward differences of ``fun`` computed in Rust (``result.jacobian`` says which).
+See docs/python.md for the scipy-to-reckon table of names.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from . import _errors
+from ._errors import *  # noqa: F401,F403  (the exception hierarchy under reckon.Error)
+from ._errors import __all__ as _error_names
+from ._reckon import DenseOutput
+from ._reckon import solve as _solve
+
+__all__ = ["solve_ivp", "OdeResult", "DenseOutput", "METHODS", *_error_names]
+
+#: reckon's methods by the names ``solve_ivp`` takes.
+METHODS = ("RK45", "BDF", "Rodas5P", "Auto", "ImplicitEuler", "ExponentialEuler", "Euler")
+
+#: scipy methods reckon does not have, with what to use instead.
+_INSTEAD = {
+    "RK23": "use method='RK45' (Dormand–Prince 5(4), the same family, higher order)",
+    "DOP853": "use method='RK45' with a tighter rtol, or method='Rodas5P' for stiff problems",
+    "Radau": "use method='Rodas5P' (L-stable Rosenbrock, order 5) or method='BDF' for stiff problems",
+}
+
+#: scipy names reckon answers with another of its methods.
+_ALIASES = {"LSODA": "Auto"}  # LSODA switches Adams ⇄ BDF; Auto switches RK45 ⇄ BDF
+
+_EPS = np.finfo(float).eps
+_MESSAGES = {
+    0: "The solver successfully reached the end of the integration interval.",
+    1: "A termination event occurred.",
+}
+
+
+class OdeResult(dict):
+    """The result of :func:`solve_ivp`: a dict whose keys are also attributes, as scipy's.
+
+    Fields shared with scipy: ``t``, ``y`` (shape ``(n, n_points)``), ``sol``,
+    ``t_events``, ``y_events``, ``nfev``, ``njev``, ``nlu``, ``status``, ``message``,
+    ``success``. reckon's extras: ``stats`` (the library's counters and the Python
+    calls), ``stiffness`` (where the stiffness test fired, or None), ``switches``
+    (``method='Auto'``'s switches), ``method``, ``jacobian`` (where the Jacobian came
+    from) and ``error`` (on ``status == -1``: the typed :class:`reckon.Error`, not raised).
+    """
+
+    def __getattr__(self, name: str) -> Any:
+        try:
+            return self[name]
+        except KeyError as e:
+            raise AttributeError(name) from e
+
+    __setattr__ = dict.__setitem__  # type: ignore[assignment]
+    __delattr__ = dict.__delitem__  # type: ignore[assignment]
+
+    def __repr__(self) -> str:
+        width = max(map(len, self)) + 1
+        return "\n".join(f"{k.rjust(width)}: {v!r}" for k, v in self.items())
+
+    def __dir__(self):
+        return list(self.keys())
+
+
+def _method_name(method: Any) -> str:
+    name = method if isinstance(method, str) else getattr(method, "__name__", None)
+    if not isinstance(name, str):
+        raise ValueError(f"method must be a string, one of {METHODS}; got {method!r}")
+    name = _ALIASES.get(name, name)
+    if name in METHODS:
+        return name
+    if name in _INSTEAD:
+        raise ValueError(f"reckon has no method {name!r}: {_INSTEAD[name]}")
+    raise ValueError(f"unknown method {name!r}: reckon offers {', '.join(METHODS)}")
+
+
+def _tolerance(value: Any, n: int, what: str) -> list[float]:
+    v = np.asarray(value, dtype=float)
+    if v.ndim == 0:
+        return [float(v)]
+    if v.shape != (n,):
+        raise ValueError(f"`{what}` must be a scalar or of shape ({n},), got shape {v.shape}")
+    return [float(x) for x in v]
+
+
+def _prepare_events(events: Any, args: tuple | None) -> list[tuple[Callable, bool, float]]:
+    if events is None:
+        return []
+    if callable(events):
+        events = (events,)
+    out = []
+    for event in events:
+        terminal = getattr(event, "terminal", False)
+        if isinstance(terminal, (bool, np.bool_)):
+            stop = bool(terminal)
+        elif isinstance(terminal, (int, np.integer)) and terminal >= 0:
+            if terminal > 1:
+                raise ValueError(
+                    f"event.terminal = {terminal} (stop after {terminal} occurrences) is not "
+                    "supported yet: reckon's events stop at their first zero (terminal=True/1)"
+                )
+            stop = terminal == 1
+        else:
+            raise ValueError("The `terminal` attribute of each event must be a boolean or positive integer.")
+        direction = float(getattr(event, "direction", 0))
+        g = event if args is None else (lambda t, y, event=event: event(t, y, *args))
+        out.append((g, stop, direction))
+    return out
+
+
+def solve_ivp(
+    fun: Callable,
+    t_span: Sequence[float],
+    y0: Any,
+    method: str = "RK45",
+    t_eval: Any = None,
+    dense_output: bool = False,
+    events: Any = None,
+    vectorized: bool = False,
+    args: tuple | None = None,
+    *,
+    rtol: Any = 1e-3,
+    atol: Any = 1e-6,
+    jac: Any = None,
+    first_step: float | None = None,
+    max_step: float = np.inf,
+    fixed_step: float | None = None,
+    max_steps: int | None = None,
+    **options: Any,
+) -> OdeResult:
+    """Solve ``y' = fun(t, y)``, ``y(t0) = y0`` on ``t_span`` with one of reckon's methods.
+
+    Every argument scipy's ``solve_ivp`` has means what it means there: ``t_eval``
+    (sorted output times inside ``t_span``), ``dense_output`` (``result.sol(t)``),
+    ``events`` (callables ``g(t, y)`` with optional ``terminal`` and ``direction``
+    attributes), ``vectorized``, ``args`` (passed to ``fun``, ``jac`` and the events),
+    ``rtol`` (default 1e-3; values below 100·eps are raised to it, with a warning, as
+    scipy does), ``atol`` (default 1e-6, scalar or per component), ``jac`` (callable
+    ``jac(t, y)``, or a constant array or sparse matrix), ``first_step`` and
+    ``max_step``.
+
+    ``method``: ``"RK45"``, ``"BDF"``, ``"Rodas5P"``, ``"Auto"`` (RK45 ⇄ BDF),
+    ``"ImplicitEuler"``, ``"ExponentialEuler"``, ``"Euler"``; ``"LSODA"`` runs
+    ``"Auto"``. ``"Euler"`` takes fixed steps of size ``first_step`` (required).
+    ``"RK23"``, ``"DOP853"`` and ``"Radau"`` raise ``ValueError`` naming what to use.
+
+    reckon's extras: ``fixed_step=h`` (fixed steps of size h, any method) and
+    ``max_steps`` (step attempts between two stops, default 100 000).
+
+    A Python exception raised in ``fun``, ``jac`` or an event comes out as itself; a
+    return of the wrong length is a ``ValueError``; NaN or ±inf is
+    :class:`reckon.NonFinite`. Invalid arguments raise :class:`reckon.InvalidInput`
+    (a ``ValueError``). A failure of the integration itself (step size underflow, Newton
+    divergence, the step limit) gives ``status = -1`` with ``result.error`` the typed
+    exception, as scipy returns ``status = -1``; reckon keeps no partial solution, so
+    ``t`` and ``y`` then hold the initial point only.
+    """
+    name = _method_name(method)
+    if options:
+        warnings.warn(
+            "The following arguments have no effect for a chosen solver: "
+            + ", ".join(f"`{k}`" for k in options)
+            + ".",
+            stacklevel=2,
+        )
+    t0, tf = map(float, t_span)
+    y0 = np.asarray(y0)
+    if np.issubdtype(y0.dtype, np.complexfloating):
+        raise ValueError("complex y0 is not supported by reckon: split it into real and imaginary parts")
+    y0 = y0.astype(float)
+    if y0.ndim != 1:
+        raise ValueError("`y0` must be 1-dimensional.")
+    n = y0.shape[0]
+
+    if args is not None:
+        try:
+            _ = [*(args)]
+        except TypeError as exp:
+            raise TypeError(
+                "Supplied 'args' cannot be unpacked. Please supply `args` as a tuple (e.g. `args=(a,)`)"
+            ) from exp
+        user_fun = fun
+        fun = lambda t, x: user_fun(t, x, *args)  # noqa: E731
+        if callable(jac):
+            user_jac = jac
+            jac = lambda t, x: user_jac(t, x, *args)  # noqa: E731
+    if vectorized:
+        vfun = fun
+        fun = lambda t, x: np.asarray(vfun(t, x[:, None])).ravel()  # noqa: E731
+
+    rtol_v = _tolerance(rtol, n, "rtol")
+    if any(r < 100 * _EPS for r in rtol_v):
+        warnings.warn(
+            "At least one element of `rtol` is too small. "
+            f"Setting `rtol = np.maximum(rtol, {100 * _EPS})`.",
+            stacklevel=2,
+        )
+        rtol_v = [max(r, 100 * _EPS) for r in rtol_v]
+    atol_v = _tolerance(atol, n, "atol")
+
+    if t_eval is not None:
+        t_eval = np.asarray(t_eval, dtype=float)
+        if t_eval.ndim != 1:
+            raise ValueError("`t_eval` must be 1-dimensional.")
+        if np.any(t_eval < min(t0, tf)) or np.any(t_eval > max(t0, tf)):
+            raise ValueError("Values in `t_eval` are not within `t_span`.")
+        d = np.diff(t_eval)
+        if (tf > t0 and np.any(d <= 0)) or (tf < t0 and np.any(d >= 0)):
+            raise ValueError("Values in `t_eval` are not properly sorted.")
+    evs = _prepare_events(events, args)
+    if max_step is None or math.isinf(max_step):
+        max_step = math.inf
+
+    r = _solve(
+        fun,
+        t0,
+        tf,
+        [float(v) for v in y0],
+        name,
+        rtol_v,
+        atol_v,
+        jac,
+        None if first_step is None else float(first_step),
+        float(max_step),
+        None if fixed_step is None else float(fixed_step),
+        None if t_eval is None or len(t_eval) == 0 else [float(v) for v in t_eval],
+        bool(dense_output),
+        evs,
+        max_steps,
+    )
+
+    error = r.get("error")
+    status = -1 if error is not None else (1 if r["terminated"] else 0)
+    t, y = r["t"], r["y"]
+    if t_eval is not None and error is None:
+        if len(t_eval) == 0:
+            t, y = t[:0], y[:, :0]
+        elif status == 1:
+            # reckon keeps the stop point after the output times reached; scipy does not
+            t_stop = t[-1]
+            reached = int(np.sum((t_eval - t_stop) * np.sign(tf - t0) <= 0))
+            t, y = t[:reached], y[:, :reached]
+
+    if evs and error is not None:  # no hits are kept from a failed run
+        t_events = [np.empty(0) for _ in evs]
+        y_events = [np.empty(0) for _ in evs]
+    elif evs:
+        t_events = [te for te, _ in r["events"]]
+        y_events = [ye for _, ye in r["events"]]
+    else:
+        t_events = y_events = None
+    stats = r["stats"]
+    return OdeResult(
+        t=t,
+        y=y,
+        sol=r["sol"],
+        t_events=t_events,
+        y_events=y_events,
+        nfev=int(stats.get("rhs_evals", r["fun_calls"])),
+        njev=int(stats.get("jacobian_evals", r["jac_calls"])),
+        nlu=int(stats.get("lu_decompositions", 0)),
+        status=status,
+        message=str(error) if error is not None else _MESSAGES[status],
+        success=status >= 0,
+        stats=stats,
+        stiffness=r["stiffness"],
+        switches=r["switches"],
+        method=name,
+        jacobian=r["jacobian"] if stats.get("jacobian_evals", r["jac_calls"]) else None,
+        error=error,
+    )
+
+
+del _errors

@@ -1,0 +1,581 @@
+//! `reckon._reckon`: the native half of the Python package.
+//!
+//! [`solve`] integrates `y' = fun(t, y)` with one of reckon's methods, calling the
+//! Python function back for every right-hand side (the callback mode): a [`PyModel`]
+//! is a `System<Dyn>` whose `rhs` calls `fun`, whose Jacobian is the user's `jac`
+//! (callable or constant) or forward differences of `fun` done here, and whose events
+//! call the user's event functions. The argument handling with scipy's names and the
+//! result object live in `reckon/__init__.py`.
+//!
+//! A Python exception raised by a user function (or a wrong-length or non-finite
+//! return) is kept in [`PyModel::fault`]; from then on every call returns NaN without
+//! calling Python, so the library stops at once with a typed error, and [`solve`]
+//! raises the kept exception instead of that error.
+
+mod errors;
+
+use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+use reckon::methods::{Auto, Bdf, Euler, ExponentialEuler, ImplicitEuler, Rk45, Rodas5P};
+use reckon::nalgebra::{DMatrix, DVector, Dyn};
+use reckon::{Direction, Event, Options, Problem, Save, Solution, System};
+use std::cell::{Cell, RefCell};
+
+/// The user's Jacobian: a callable `jac(t, y)`, a constant matrix, or none (forward
+/// differences of `fun`).
+enum Jac<'py> {
+    Callable(Bound<'py, PyAny>),
+    Constant(DMatrix<f64>),
+    Differences,
+}
+
+/// `y' = fun(t, y)` with `fun` a Python callable: reckon's `System` for a `Dyn` state.
+struct PyModel<'py> {
+    py: Python<'py>,
+    fun: Bound<'py, PyAny>,
+    jac: Jac<'py>,
+    n: usize,
+    /// `numpy.asarray`, for returns that are not float64 arrays.
+    asarray: Bound<'py, PyAny>,
+    /// The first failure of a user function; once set, every call returns NaN.
+    fault: RefCell<Option<PyErr>>,
+    /// Calls of `fun` (the library's counted calls and the difference quotients).
+    fun_calls: Cell<u64>,
+    /// Calls of a callable `jac`.
+    jac_calls: Cell<u64>,
+}
+
+impl<'py> PyModel<'py> {
+    fn failed(&self) -> bool {
+        self.fault.borrow().is_some()
+    }
+
+    fn keep(&self, err: PyErr) {
+        let mut f = self.fault.borrow_mut();
+        if f.is_none() {
+            *f = Some(err);
+        }
+    }
+
+    /// `out ← fun(t, x)`, or the error that stops the run.
+    fn call_fun(&self, t: f64, x: &[f64], out: &mut [f64]) -> PyResult<()> {
+        self.fun_calls.set(self.fun_calls.get() + 1);
+        let y = PyArray1::from_slice(self.py, x);
+        let r = self.fun.call1((t, y))?;
+        self.read_vector(&r, out, t, "fun")
+    }
+
+    /// Copy a returned vector of `n` values into `out`, refusing another shape and
+    /// non-finite values.
+    fn read_vector(&self, r: &Bound<'py, PyAny>, out: &mut [f64], t: f64, who: &str) -> PyResult<()> {
+        let arr = match r.cast::<PyArray1<f64>>() {
+            Ok(a) => a.clone(),
+            Err(_) => {
+                let a = self.asarray.call1((r, "float64")).map_err(|e| {
+                    pyo3::exceptions::PyValueError::new_err(format!(
+                        "{who}(t, y) returned {} that is not an array of floats at t = {t}: {e}",
+                        r.get_type().name().map(|n| n.to_string()).unwrap_or_default()
+                    ))
+                })?;
+                if a.cast::<numpy::PyUntypedArray>()?.ndim() == 0 && self.n == 1 {
+                    out[0] = a.extract::<f64>()?;
+                    return check_finite(self.py, out, t, who);
+                }
+                match a.cast::<PyArray1<f64>>() {
+                    Ok(a) => a.clone(),
+                    Err(_) => {
+                        let shape = a.getattr("shape")?;
+                        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                            "{who}(t, y) returned an array of shape {shape}, expected ({},) at t = {t}",
+                            self.n
+                        )));
+                    }
+                }
+            }
+        };
+        if arr.len() != self.n {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "{who}(t, y) returned {} values, expected {} (the length of y0) at t = {t}",
+                arr.len(),
+                self.n
+            )));
+        }
+        // SAFETY: the GIL is held and no Python code runs while the slice is read.
+        match unsafe { arr.as_slice() } {
+            Ok(s) => out.copy_from_slice(s),
+            Err(_) => {
+                // a strided view: element by element
+                let ro = arr.readonly();
+                for (o, v) in out.iter_mut().zip(ro.as_array().iter()) {
+                    *o = *v;
+                }
+            }
+        }
+        check_finite(self.py, out, t, who)
+    }
+
+    fn rhs_into(&self, t: f64, x: &[f64], out: &mut [f64]) {
+        if !self.failed()
+            && let Err(e) = self.call_fun(t, x, out)
+        {
+            self.keep(e);
+        }
+        if self.failed() {
+            out.fill(f64::NAN);
+        }
+    }
+
+    fn jacobian_into(&self, t: f64, x: &DVector<f64>, jac: &mut DMatrix<f64>) -> PyResult<()> {
+        match &self.jac {
+            Jac::Constant(m) => jac.copy_from(m),
+            Jac::Callable(j) => {
+                self.jac_calls.set(self.jac_calls.get() + 1);
+                let y = PyArray1::from_slice(self.py, x.as_slice());
+                let r = j.call1((t, y))?;
+                let m = read_matrix(&r, &self.asarray, self.n, t)?;
+                jac.copy_from(&m);
+            }
+            Jac::Differences => {
+                // forward differences, h_j = √ε·max(|x_j|, 1)
+                let n = self.n;
+                let mut f0 = vec![0.0; n];
+                let mut f1 = vec![0.0; n];
+                self.call_fun(t, x.as_slice(), &mut f0)?;
+                let mut xp = x.as_slice().to_vec();
+                for j in 0..n {
+                    let xj = xp[j];
+                    let h = f64::EPSILON.sqrt() * xj.abs().max(1.0);
+                    xp[j] = xj + h;
+                    let h = xp[j] - xj; // the step actually taken
+                    self.call_fun(t, &xp, &mut f1)?;
+                    xp[j] = xj;
+                    for i in 0..n {
+                        jac[(i, j)] = (f1[i] - f0[i]) / h;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// An event function's return as a number: a float, or anything numpy reads as one value
+/// (a 0-d or 1-element array).
+fn event_value(r: &Bound<'_, PyAny>, asarray: &Bound<'_, PyAny>, t: f64) -> PyResult<f64> {
+    if let Ok(v) = r.extract::<f64>() {
+        return Ok(v);
+    }
+    let a = asarray.call1((r, "float64"))?;
+    if a.getattr("size")?.extract::<usize>()? == 1 {
+        return a.call_method0("item")?.extract();
+    }
+    Err(pyo3::exceptions::PyValueError::new_err(format!(
+        "an event function returned an array of shape {}, expected one number at t = {t}",
+        a.getattr("shape")?
+    )))
+}
+
+/// Refuse NaN and ±∞ in what `who` returned: `reckon.NonFinite` naming the component.
+fn check_finite(py: Python<'_>, v: &[f64], t: f64, who: &str) -> PyResult<()> {
+    match v.iter().position(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(errors::non_finite(
+            py,
+            format!("{who}(t, y) returned {} in component {i} at t = {t}", v[i]),
+            t,
+            if who == "jac" { "Jacobian" } else { "derivative" },
+            i,
+        )),
+    }
+}
+
+/// An `(n, n)` matrix from a returned array-like (a scipy sparse matrix is densified).
+fn read_matrix(r: &Bound<'_, PyAny>, asarray: &Bound<'_, PyAny>, n: usize, t: f64) -> PyResult<DMatrix<f64>> {
+    let r = if r.hasattr("toarray")? {
+        r.call_method0("toarray")?
+    } else {
+        r.clone()
+    };
+    let a = asarray.call1((r, "float64"))?;
+    let bad = || {
+        let shape = a.getattr("shape").map(|s| s.to_string()).unwrap_or_default();
+        pyo3::exceptions::PyValueError::new_err(format!(
+            "jac returned an array of shape {shape}, expected ({n}, {n}) at t = {t}"
+        ))
+    };
+    let Ok(a2) = a.cast::<numpy::PyArray2<f64>>() else {
+        if n == 1 && a.cast::<numpy::PyUntypedArray>()?.ndim() <= 1 {
+            let v: Vec<f64> = a.call_method0("ravel")?.extract()?;
+            if v.len() == 1 {
+                check_finite(a.py(), &v, t, "jac")?;
+                return Ok(DMatrix::from_element(1, 1, v[0]));
+            }
+        }
+        return Err(bad());
+    };
+    if a2.shape() != [n, n] {
+        return Err(bad());
+    }
+    let ro = a2.readonly();
+    let view = ro.as_array();
+    let m = DMatrix::from_fn(n, n, |i, j| view[[i, j]]);
+    check_finite(a.py(), m.as_slice(), t, "jac")?;
+    Ok(m)
+}
+
+impl System<Dyn> for PyModel<'_> {
+    fn rhs(&self, t: f64, x: &DVector<f64>, _u: &[f64], dx: &mut DVector<f64>) {
+        self.rhs_into(t, x.as_slice(), dx.as_mut_slice());
+    }
+    fn jacobian(&self, t: f64, x: &DVector<f64>, _u: &[f64], jac: &mut DMatrix<f64>) {
+        if !self.failed()
+            && let Err(e) = self.jacobian_into(t, x, jac)
+        {
+            self.keep(e);
+        }
+        if self.failed() {
+            jac.fill(f64::NAN);
+        }
+    }
+}
+
+/// One step's dense polynomial `y(t₀ + θh) = Σ_j c_j θʲ` (`c` is `k × n`, row `j` = `c_j`).
+struct Segment {
+    t0: f64,
+    h: f64,
+    t1: f64,
+    c: Vec<f64>,
+}
+
+/// The continuous solution of a `solve_ivp(..., dense_output=True)` run, as scipy's
+/// `OdeSolution`: `sol(t)` is `y(t)` of shape `(n,)` for a scalar `t` and `(n, m)` for
+/// `m` times, from the method's dense output on the step holding `t` (outside
+/// `[t_min, t_max]` the first or last step's polynomial is extrapolated, as scipy does).
+#[pyclass(module = "reckon", frozen)]
+struct DenseOutput {
+    n: usize,
+    segments: Vec<Segment>,
+    #[pyo3(get)]
+    t_min: f64,
+    #[pyo3(get)]
+    t_max: f64,
+    forward: bool,
+}
+
+impl DenseOutput {
+    fn from_solution(sol: &Solution<Dyn>, n: usize) -> Self {
+        let segments: Vec<Segment> = sol
+            .dense_segments()
+            .iter()
+            .map(|s| Segment {
+                t0: s.t0,
+                h: s.h,
+                t1: s.t1,
+                c: s.c.iter().flat_map(|v| v.iter().copied()).collect(),
+            })
+            .collect();
+        let (a, b) = (sol.t[0], *sol.t.last().unwrap_or(&sol.t[0]));
+        DenseOutput {
+            n,
+            forward: segments.first().is_none_or(|s| s.h > 0.0),
+            segments,
+            t_min: a.min(b),
+            t_max: a.max(b),
+        }
+    }
+
+    fn eval_into(&self, t: f64, out: &mut [f64]) {
+        let k = if self.forward {
+            self.segments.partition_point(|s| s.t1 < t)
+        } else {
+            self.segments.partition_point(|s| s.t1 > t)
+        };
+        let s = &self.segments[k.min(self.segments.len() - 1)];
+        let theta = (t - s.t0) / s.h;
+        let m = s.c.len() / self.n;
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut y = s.c[(m - 1) * self.n + i];
+            for j in (0..m - 1).rev() {
+                y = y * theta + s.c[j * self.n + i];
+            }
+            *o = y;
+        }
+    }
+}
+
+#[pymethods]
+impl DenseOutput {
+    fn __call__<'py>(&self, py: Python<'py>, t: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+        if self.segments.is_empty() {
+            return Err(pyo3::exceptions::PyValueError::new_err(
+                "the run took no step, so there is no dense output to evaluate",
+            ));
+        }
+        let n = self.n;
+        if let Ok(ts) = t.extract::<f64>() {
+            let mut out = vec![0.0; n];
+            self.eval_into(ts, &mut out);
+            return Ok(PyArray1::from_vec(py, out).into_any());
+        }
+        let ts: Vec<f64> = py
+            .import("numpy")?
+            .call_method1("asarray", (t, "float64"))?
+            .call_method0("ravel")?
+            .extract()?;
+        let m = ts.len();
+        let mut col = vec![0.0; n];
+        let mut flat = vec![0.0; n * m];
+        for (j, &tj) in ts.iter().enumerate() {
+            self.eval_into(tj, &mut col);
+            for i in 0..n {
+                flat[i * m + j] = col[i];
+            }
+        }
+        Ok(PyArray1::from_vec(py, flat).reshape([n, m])?.into_any())
+    }
+
+    /// The step boundaries, from `t0` to where the run stopped.
+    #[getter]
+    fn ts<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let mut ts: Vec<f64> = self.segments.iter().map(|s| s.t0).collect();
+        if let Some(s) = self.segments.last() {
+            ts.push(s.t1);
+        }
+        PyArray1::from_vec(py, ts)
+    }
+
+    /// The number of steps (polynomial pieces).
+    fn __len__(&self) -> usize {
+        self.segments.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "DenseOutput(t_min={}, t_max={}, {} steps, {} states)",
+            self.t_min,
+            self.t_max,
+            self.segments.len(),
+            self.n
+        )
+    }
+}
+
+/// Integrate `y' = fun(t, y)`, `y(t0) = y0` to `t1` with `method`, calling `fun` back.
+///
+/// Returns a dict with `t`, `y` (n × m), `events` (one `(t, y)` pair of lists per event
+/// function), `stats`, `stiffness`, `switches`, `sol` (a [`DenseOutput`] or None),
+/// `terminated` (a terminal event stopped the run), and on an integration failure `error`
+/// (the typed exception, not raised) with `t` and `y` holding the initial point only.
+/// A user function's failure, and invalid input, are raised.
+#[pyfunction]
+#[pyo3(signature = (fun, t0, t1, y0, method, rtol, atol, jac, first_step, max_step, fixed_step, t_eval, dense, events, max_steps))]
+#[allow(clippy::too_many_arguments)]
+fn solve<'py>(
+    py: Python<'py>,
+    fun: Bound<'py, PyAny>,
+    t0: f64,
+    t1: f64,
+    y0: Vec<f64>,
+    method: &str,
+    rtol: Vec<f64>,
+    atol: Vec<f64>,
+    jac: Option<Bound<'py, PyAny>>,
+    first_step: Option<f64>,
+    max_step: f64,
+    fixed_step: Option<f64>,
+    t_eval: Option<Vec<f64>>,
+    dense: bool,
+    events: Vec<(Bound<'py, PyAny>, bool, f64)>,
+    max_steps: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let n = y0.len();
+    let asarray = py.import("numpy")?.getattr("asarray")?;
+    let jac = match jac {
+        None => Jac::Differences,
+        Some(j) if j.is_callable() => Jac::Callable(j),
+        Some(j) => Jac::Constant(read_matrix(&j, &asarray, n, t0)?),
+    };
+    let jac_kind = match &jac {
+        Jac::Callable(_) => "jac",
+        Jac::Constant(_) => "constant jac",
+        Jac::Differences => "finite differences",
+    };
+    let model = PyModel {
+        py,
+        fun,
+        jac,
+        n,
+        asarray,
+        fault: RefCell::new(None),
+        fun_calls: Cell::new(0),
+        jac_calls: Cell::new(0),
+    };
+    let tol =
+        |v: Vec<f64>| -> reckon::problem::options::Tolerance { if v.len() == 1 { v[0].into() } else { v.into() } };
+    let mut opts = Options::default()
+        .rtol(tol(rtol))
+        .atol(tol(atol))
+        .h_max(max_step)
+        .dense(dense);
+    if let Some(m) = max_steps {
+        opts = opts.max_steps(m);
+    }
+    match (method, fixed_step, first_step) {
+        (_, Some(h), _) => opts = opts.fixed(h),
+        ("Euler", None, Some(h)) => opts = opts.fixed(h),
+        ("Euler", None, None) => {
+            return Err(errors::invalid(
+                py,
+                "first_step",
+                "method=\"Euler\" takes fixed steps: give the step as first_step=h (or fixed_step=h)".into(),
+            ));
+        }
+        (_, None, Some(h)) => opts = opts.h0(h),
+        _ => {}
+    }
+    if let Some(ts) = t_eval {
+        opts = opts.save(Save::At(ts));
+    }
+    let y0_kept = y0.clone();
+    let mut problem = Problem::new(&model, DVector::from_vec(y0), (t0, t1));
+    let model_ref = &model;
+    for (g, terminal, direction) in &events {
+        let g = g.clone();
+        let mut e = Event::new(move |t: f64, x: &DVector<f64>| {
+            if model_ref.failed() {
+                return f64::NAN;
+            }
+            let y = PyArray1::from_slice(model_ref.py, x.as_slice());
+            match g.call1((t, y)).and_then(|r| event_value(&r, &model_ref.asarray, t)) {
+                Ok(v) => v,
+                Err(e) => {
+                    model_ref.keep(e);
+                    f64::NAN
+                }
+            }
+        });
+        e = match *direction {
+            d if d > 0.0 => e.direction(Direction::Rising),
+            d if d < 0.0 => e.direction(Direction::Falling),
+            _ => e,
+        };
+        if *terminal {
+            e = e.terminal();
+        }
+        problem = problem.event(e);
+    }
+    let result = match method {
+        "RK45" => problem.solve(Rk45::default(), &opts),
+        "BDF" => problem.solve(Bdf::default(), &opts),
+        "Rodas5P" => problem.solve(Rodas5P::default(), &opts),
+        "Auto" => problem.solve(Auto::default(), &opts),
+        "ImplicitEuler" => problem.solve(ImplicitEuler::default(), &opts),
+        "ExponentialEuler" => problem.solve(ExponentialEuler::default(), &opts),
+        "Euler" => problem.solve(Euler, &opts),
+        other => {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "unknown method {other:?}"
+            )));
+        }
+    };
+    drop(problem);
+    if let Some(e) = model.fault.borrow_mut().take() {
+        return Err(e);
+    }
+    let out = PyDict::new(py);
+    out.set_item("jacobian", jac_kind)?;
+    out.set_item("fun_calls", model.fun_calls.get())?;
+    out.set_item("jac_calls", model.jac_calls.get())?;
+    let sol = match result {
+        Ok(sol) => sol,
+        Err(e) if errors::is_failure(&e) => {
+            out.set_item("error", errors::to_py(py, &e))?;
+            let y = PyArray1::from_slice(py, &y0_kept);
+            out.set_item("t", PyArray1::from_vec(py, vec![t0]))?;
+            out.set_item("y", y.reshape([n, 1])?)?;
+            out.set_item("sol", py.None())?;
+            out.set_item("events", PyList::empty(py))?;
+            out.set_item("terminated", false)?;
+            out.set_item("stats", PyDict::new(py))?;
+            out.set_item("stiffness", py.None())?;
+            out.set_item("switches", PyList::empty(py))?;
+            return Ok(out);
+        }
+        Err(e) => return Err(errors::to_py(py, &e)),
+    };
+    let m = sol.t.len();
+    let mut flat = vec![0.0; n * m];
+    for (j, x) in sol.x.iter().enumerate() {
+        for i in 0..n {
+            flat[i * m + j] = x[i];
+        }
+    }
+    out.set_item("t", PyArray1::from_slice(py, &sol.t))?;
+    out.set_item("y", PyArray1::from_vec(py, flat).reshape([n, m])?)?;
+    let mut per_event: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); events.len()];
+    let mut terminated = false;
+    for hit in &sol.events {
+        per_event[hit.index].0.push(hit.t);
+        per_event[hit.index].1.extend(hit.x.iter().copied());
+        terminated |= events[hit.index].1;
+    }
+    let ev = PyList::empty(py);
+    for (ts, ys) in per_event {
+        let k = ts.len();
+        ev.append((
+            PyArray1::from_vec(py, ts),
+            if k == 0 {
+                PyArray1::<f64>::zeros(py, [0], false).into_any()
+            } else {
+                PyArray1::from_vec(py, ys).reshape([k, n])?.into_any()
+            },
+        ))?;
+    }
+    out.set_item("events", ev)?;
+    out.set_item("terminated", terminated)?;
+    let s = sol.stats;
+    let stats = PyDict::new(py);
+    stats.set_item("rhs_evals", s.rhs_evals)?;
+    stats.set_item("jacobian_evals", s.jacobian_evals)?;
+    stats.set_item("time_derivative_evals", s.time_derivative_evals)?;
+    stats.set_item("lu_decompositions", s.lu_decompositions)?;
+    stats.set_item("newton_iterations", s.newton_iterations)?;
+    stats.set_item("accepted", s.accepted)?;
+    stats.set_item("rejected", s.rejected)?;
+    stats.set_item("fun_calls", model.fun_calls.get())?;
+    stats.set_item("jac_calls", model.jac_calls.get())?;
+    out.set_item("stats", stats)?;
+    match sol.stiffness {
+        Some(st) => {
+            let d = PyDict::new(py);
+            d.set_item("t", st.t)?;
+            d.set_item("h_lambda", st.h_lambda)?;
+            out.set_item("stiffness", d)?;
+        }
+        None => out.set_item("stiffness", py.None())?,
+    }
+    let sw = PyList::empty(py);
+    for w in &sol.switches {
+        let d = PyDict::new(py);
+        d.set_item("t", w.t)?;
+        d.set_item("to", w.to)?;
+        d.set_item("reason", w.reason.to_string())?;
+        sw.append(d)?;
+    }
+    out.set_item("switches", sw)?;
+    out.set_item("method", sol.method)?;
+    if dense {
+        out.set_item("sol", Bound::new(py, DenseOutput::from_solution(&sol, n))?)?;
+    } else {
+        out.set_item("sol", py.None())?;
+    }
+    Ok(out)
+}
+
+#[pymodule]
+fn _reckon(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_class::<DenseOutput>()?;
+    Ok(())
+}

@@ -69,9 +69,7 @@ fn all<const N: usize, F: DualSystem<nalgebra::Const<N>> + Clone>(
     for &rtol in rtols {
         let o = Options::default().rtol(rtol).atol(rtol * atol_rel).max_steps(5_000_000);
         let p = Problem::new(f.clone(), y0, (0.0, t1));
-        row(name, "dopri5", rtol, rtol * atol_rel, &r, || {
-            p.solve(Rk45, &o)
-        });
+        row(name, "dopri5", rtol, rtol * atol_rel, &r, || p.solve(Rk45, &o));
         row(name, "bdf", rtol, rtol * atol_rel, &r, || p.solve(Bdf::default(), &o));
         row(name, "auto", rtol, rtol * atol_rel, &r, || p.solve(Auto::default(), &o));
     }

@@ -8,7 +8,7 @@ pub mod guide {}
 pub mod calibration;
 pub mod ensemble;
 pub mod error;
-pub mod integrator;
+mod integrator;
 pub mod jacobian;
 pub mod kalman;
 pub mod lie;

@@ -115,11 +115,7 @@ fn fixed_size_steps_allocate_nothing() {
         0,
         "exact flow"
     );
-    assert_eq!(
-        allocs_in_steps(&uni, Rk45, &opts, 200),
-        0,
-        "RK45 across breakpoints"
-    );
+    assert_eq!(allocs_in_steps(&uni, Rk45, &opts, 200), 0, "RK45 across breakpoints");
     assert_eq!(
         allocs_in_steps(&uni, ImplicitEuler::default(), &opts.clone().fixed(0.01), 200),
         0,

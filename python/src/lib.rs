@@ -466,12 +466,12 @@ fn solve<'py>(
         problem = problem.event(e);
     }
     let result = match method {
-        "RK45" => problem.solve(Rk45::default(), &opts),
+        "RK45" => problem.solve(Rk45, &opts),
         "BDF" => problem.solve(Bdf::default(), &opts),
-        "Rodas5P" => problem.solve(Rodas5P::default(), &opts),
+        "Rodas5P" => problem.solve(Rodas5P, &opts),
         "Auto" => problem.solve(Auto::default(), &opts),
         "ImplicitEuler" => problem.solve(ImplicitEuler::default(), &opts),
-        "ExponentialEuler" => problem.solve(ExponentialEuler::default(), &opts),
+        "ExponentialEuler" => problem.solve(ExponentialEuler, &opts),
         "Euler" => problem.solve(Euler, &opts),
         other => {
             return Err(pyo3::exceptions::PyValueError::new_err(format!(

@@ -15,6 +15,7 @@ mod sparse_lu;
 pub use sparse_lu::SparseLu;
 
 /// A factorisation of a square matrix that can solve `M·y = b` in place.
+#[doc(hidden)]
 pub trait Lu<D: nalgebra::Dim>: Sized
 where
     nalgebra::DefaultAllocator: nalgebra::allocator::Allocator<D> + nalgebra::allocator::Allocator<D, D>,
@@ -36,6 +37,7 @@ where
 }
 
 /// nalgebra's LU with partial pivoting, on the stack (no allocation).
+#[doc(hidden)]
 pub struct FixedLu<const N: usize>(nalgebra::linalg::LU<f64, Const<N>, Const<N>>)
 where
     Const<N>: nalgebra::DimMin<Const<N>, Output = Const<N>>;
@@ -77,6 +79,7 @@ fixed_lu!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 2
 /// assert_eq!(e.to_string(), "invalid rhs: 3 entries for a 2 × 2 matrix");
 /// assert!(DynLu::factor(&dmatrix![1.0, 2.0, 3.0]).is_none()); // not square
 /// ```
+#[doc(hidden)]
 pub struct DynLu(faer::linalg::solvers::PartialPivLu<f64>);
 
 impl Lu<Dyn> for DynLu {

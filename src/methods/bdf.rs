@@ -80,8 +80,8 @@ impl Coefficients {
 /// shared with [`ImplicitEuler`](super::ImplicitEuler): `J` is kept over many steps
 /// and refreshed only when Newton fails to converge; the LU of `I − (h/α_k)J` is
 /// refactored only when `h/α_k` moved by more than
-/// [`LU_REUSE`](super::newton::LU_REUSE) (30 %) since it was factored. Newton stops when
-/// its estimated error is below [`BDF_TOL_FLOOR`](super::newton::BDF_TOL_FLOOR) = 1 % of
+/// `newton::LU_REUSE` (30 %) since it was factored. Newton stops when
+/// its estimated error is below `newton::BDF_TOL_FLOOR` = 1 % of
 /// the tolerance (`10ε/rtol` where that is larger). scipy's `max(10ε/rtol, min(0.03,
 /// √rtol))` asks 2e-5 at `rtol` 1e-10, which costs an iteration per step and buys no
 /// digit, and 3 % at loose tolerances, which moved OREGO's limit cycle by a spike.
@@ -141,7 +141,7 @@ impl Coefficients {
 #[derive(Debug, Clone)]
 pub struct Bdf {
     /// Newton settings (`max_iters` defaults to scipy's 4 here; `tol: None` is scipy's
-    /// rule floored at [`BDF_TOL_FLOOR`](super::newton::BDF_TOL_FLOOR)).
+    /// rule floored at `newton::BDF_TOL_FLOOR`).
     pub newton: super::NewtonOptions,
     /// Highest order the selection may reach (1–5).
     pub max_order: usize,

@@ -36,7 +36,7 @@ impl Default for NewtonOptions {
 /// The solver is the one [`Bdf`](super::Bdf) uses (implicit Euler is its order-1 member
 /// without the NDF term): `J` is kept across steps and refreshed only when Newton fails,
 /// at the last iterate; the LU of `M` is refactored only when `h` moved by more than
-/// [`LU_REUSE`](super::newton::LU_REUSE) = 30 % since it was factored. If a fresh `J`
+/// `newton::LU_REUSE` = 30 % since it was factored. If a fresh `J`
 /// fails too, the step is handed back to the driver to shrink.
 ///
 /// **Error estimate** (adaptive mode). The local error of backward Euler is

@@ -22,9 +22,10 @@ pub mod exact;
 pub mod exponential_euler;
 pub mod implicit_euler;
 pub(crate) mod iteration;
-pub mod newton;
+pub(crate) mod newton;
 pub mod rk45;
 pub mod rodas5p;
+#[doc(hidden)]
 pub mod step_size;
 
 pub use auto::Auto;

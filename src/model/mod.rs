@@ -12,11 +12,13 @@ use std::marker::PhantomData;
 
 mod eval;
 mod flow;
-pub mod lhs;
+pub(crate) mod lhs;
 pub mod lti;
 pub mod params;
 
-pub use eval::{Eval, Stats};
+#[doc(hidden)]
+pub use eval::Eval;
+pub use eval::Stats;
 pub(crate) use eval::{finite, write_eps};
 pub use flow::{DualFlow, Flow};
 pub use lti::Lti;

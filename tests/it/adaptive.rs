@@ -39,9 +39,7 @@ fn dense_output_is_fourth_order_accurate_between_steps() {
     let errs: Vec<f64> = hs
         .iter()
         .map(|&h| {
-            let sol = p
-                .solve(Rk45, &Options::default().fixed(h).dense(true))
-                .unwrap();
+            let sol = p.solve(Rk45, &Options::default().fixed(h).dense(true)).unwrap();
             (0..20)
                 .map(|k| {
                     let t = (k as f64 + 0.5) * h; // first 20 step midpoints
@@ -90,9 +88,7 @@ fn error_falls_with_tolerance() {
     let errs: Vec<f64> = tols
         .iter()
         .map(|&tol| {
-            let s = p
-                .solve(Rk45, &Options::default().rtol(tol).atol(tol))
-                .unwrap();
+            let s = p.solve(Rk45, &Options::default().rtol(tol).atol(tol)).unwrap();
             (s.last().1 - exact).amax()
         })
         .collect();

@@ -11,8 +11,7 @@ use reckon::{Controls, Error, Options, Problem, Solution, System};
 const L: f64 = 2.5;
 
 fn rk45<S: System<Const<4>>>(p: &Problem<'_, Const<4>, S>) -> Solution<Const<4>> {
-    p.solve(Rk45, &Options::default().rtol(1e-13).atol(1e-13))
-        .unwrap()
+    p.solve(Rk45, &Options::default().rtol(1e-13).atol(1e-13)).unwrap()
 }
 
 /// The largest difference between `ex` and `rk` over `ex`'s times (every breakpoint).

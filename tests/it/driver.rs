@@ -23,8 +23,7 @@ fn breakpoints_and_t_end_are_hit_exactly() {
     let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 2.9)).controls(c.clone());
     let extra = 0.77;
     let runs = [
-        p.solve(Rk45, &Options::default().breakpoints([extra]))
-            .unwrap(),
+        p.solve(Rk45, &Options::default().breakpoints([extra])).unwrap(),
         p.solve(
             ImplicitEuler::default(),
             &Options::default().rtol(1e-4).breakpoints([extra]),
@@ -54,10 +53,7 @@ fn breakpoints_and_t_end_are_hit_exactly() {
     assert_eq!(runs[3].t.len(), c.times().len() + 1);
     // and RK45 at tight tolerance agrees with it everywhere it stopped
     let tight = p
-        .solve(
-            Rk45,
-            &Options::default().rtol(1e-12).atol(1e-12).breakpoints([extra]),
-        )
+        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12).breakpoints([extra]))
         .unwrap();
     let exact = &runs[3];
     for (t, x) in exact.t.iter().zip(&exact.x) {
@@ -70,9 +66,7 @@ fn breakpoints_and_t_end_are_hit_exactly() {
 fn backward_integration_returns_to_start() {
     let x0 = vector![1.0, 0.5];
     let p = Problem::new(rotation_decay(), x0, (0.0, 2.0));
-    let fwd = p
-        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
-        .unwrap();
+    let fwd = p.solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12)).unwrap();
     let back = Problem::new(rotation_decay(), *fwd.last().1, (2.0, 0.0))
         .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12).dense(true))
         .unwrap();
@@ -98,8 +92,7 @@ fn backward_integration_returns_to_start() {
     let down = Problem::new(unicycle::model(), end, (2.9, 0.0)).controls(c);
     for sol in [
         down.solve(Exact::new(unicycle::flow), &Options::default()).unwrap(),
-        down.solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
-            .unwrap(),
+        down.solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12)).unwrap(),
     ] {
         assert!(sol.last().1.amax() < 1e-10, "{}: {}", sol.method, sol.last().1);
     }
@@ -113,9 +106,7 @@ fn events_are_located_on_dense_output() {
     let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 10.0))
         .event(Event::new(zero))
         .event(Event::new(zero).direction(Direction::Falling));
-    let sol = p
-        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12))
-        .unwrap();
+    let sol = p.solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
     let pi = std::f64::consts::PI;
     let all: Vec<f64> = sol.events.iter().filter(|e| e.index == 0).map(|e| e.t).collect();
     let falling: Vec<f64> = sol.events.iter().filter(|e| e.index == 1).map(|e| e.t).collect();
@@ -129,9 +120,7 @@ fn events_are_located_on_dense_output() {
     // terminal: stops at the first rising zero, 3π/2, with x there
     let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 10.0))
         .event(Event::new(zero).direction(Direction::Rising).terminal());
-    let sol = p
-        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12))
-        .unwrap();
+    let sol = p.solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
     assert!((sol.last().0 - 1.5 * pi).abs() < 1e-9);
     assert!(sol.last().1[0].abs() < 1e-9 && (sol.last().1[1] - 1.0).abs() < 1e-9);
     assert_eq!(sol.events.len(), 1);
@@ -142,11 +131,7 @@ fn stepping_and_iterating_match_solve() {
     let p = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 5.0));
     let opts = Options::default();
     let sol = p.solve(Rk45, &opts).unwrap();
-    let steps: Vec<(f64, SVector<f64, 2>)> = p
-        .integrator(Rk45, &opts)
-        .unwrap()
-        .map(|r| r.unwrap())
-        .collect();
+    let steps: Vec<(f64, SVector<f64, 2>)> = p.integrator(Rk45, &opts).unwrap().map(|r| r.unwrap()).collect();
     assert_eq!(steps.len() + 1, sol.t.len());
     for (k, (t, x)) in steps.iter().enumerate() {
         assert_eq!(*t, sol.t[k + 1]);
@@ -168,9 +153,7 @@ fn stepping_and_iterating_match_solve() {
 fn dynamic_brusselator_with_faer_lu() {
     let n = 40;
     let p = Problem::new(brusselator(n), brusselator_y0(n), (0.0, 2.0));
-    let rk = p
-        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-10))
-        .unwrap();
+    let rk = p.solve(Rk45, &Options::default().rtol(1e-10).atol(1e-10)).unwrap();
     let ie = p
         .solve(ImplicitEuler::default(), &Options::default().rtol(1e-3).atol(1e-3))
         .unwrap();
@@ -192,9 +175,7 @@ fn events_backward() {
     let f = model!(|_t, x: [S; 2]| vector![x[1], -x[0]]);
     let x10 = vector![10f64.cos(), -10f64.sin()];
     let p = Problem::new(&f, x10, (10.0, 0.0)).event(Event::new(|_t, x: &SVector<f64, 2>| x[0]));
-    let sol = p
-        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12))
-        .unwrap();
+    let sol = p.solve(Rk45, &Options::default().rtol(1e-10).atol(1e-12)).unwrap();
     let pi = std::f64::consts::PI;
     let ts: Vec<f64> = sol.events.iter().map(|e| e.t).collect();
     let expect = [2.5 * pi, 1.5 * pi, 0.5 * pi];

@@ -33,11 +33,7 @@ fn nan_after_t1_is_reported_where_it_happens() {
         "implicit Euler fixed",
         0.01,
     );
-    check(
-        p.solve(Rk45, &Options::default().fixed(0.01)),
-        "rk45 fixed",
-        0.01,
-    );
+    check(p.solve(Rk45, &Options::default().fixed(0.01)), "rk45 fixed", 0.01);
 }
 
 #[test]
@@ -196,10 +192,7 @@ fn invalid_options_and_inputs() {
     let d = Options::default();
     assert_eq!(invalid(p.solve(Rk45, &d.clone().rtol(-1e-6))), "rtol");
     assert_eq!(invalid(p.solve(Rk45, &d.clone().atol(f64::NAN))), "atol");
-    assert_eq!(
-        invalid(p.solve(Rk45, &d.clone().rtol(0.0).atol(0.0))),
-        "atol"
-    );
+    assert_eq!(invalid(p.solve(Rk45, &d.clone().rtol(0.0).atol(0.0))), "atol");
     assert_eq!(invalid(p.solve(Rk45, &d.clone().rtol(vec![1e-6]))), "rtol");
     assert_eq!(invalid(p.solve(Euler, &d.clone().fixed(0.0))), "step");
     assert_eq!(invalid(p.solve(Euler, &d.clone().fixed(-0.1))), "step");

@@ -12,9 +12,7 @@ fn end_error<const N: usize, S: System<Const<N>>>(
     h: f64,
     exact: &SVector<f64, N>,
 ) -> f64 {
-    let sol = p
-        .solve(ExponentialEuler, &Options::default().fixed(h))
-        .unwrap();
+    let sol = p.solve(ExponentialEuler, &Options::default().fixed(h)).unwrap();
     assert_eq!(sol.last().0, p.t_end);
     (sol.last().1 - exact).amax()
 }
@@ -64,9 +62,7 @@ fn exact_on_linear_models_at_any_step() {
         3.0 - 2.0 * (-t).exp()
     ];
     for h in [2.0, 0.5, 0.05] {
-        let sol = p
-            .solve(ExponentialEuler, &Options::default().fixed(h))
-            .unwrap();
+        let sol = p.solve(ExponentialEuler, &Options::default().fixed(h)).unwrap();
         let e = (sol.last().1 - want).amax() / want.amax();
         assert!(e <= 1e-13, "h = {h}: {e:e}");
     }
@@ -82,9 +78,7 @@ fn exact_on_linear_models_at_any_step() {
 fn stable_on_the_stiff_cosine_problem() {
     // x' = −1000(x − cos t) − sin t, x = cos t: h = 0.1 is 50× explicit Euler's limit
     let p = Problem::new(stiff_cosine(), vector![1.0], (0.0, 10.0));
-    let sol = p
-        .solve(ExponentialEuler, &Options::default().fixed(0.1))
-        .unwrap();
+    let sol = p.solve(ExponentialEuler, &Options::default().fixed(0.1)).unwrap();
     assert_eq!(sol.stats.accepted, 100);
     let worst = sol
         .t
@@ -110,10 +104,7 @@ fn adaptive_error_follows_the_tolerance() {
     // fitted exponent checks the estimate's order and its scale together
     let p = Problem::new(van_der_pol(1.0), vector![2.0, 0.0], (0.0, 5.0));
     let reference = *p
-        .solve(
-            reckon::methods::Rk45,
-            &Options::default().rtol(1e-13).atol(1e-13),
-        )
+        .solve(reckon::methods::Rk45, &Options::default().rtol(1e-13).atol(1e-13))
         .unwrap()
         .last()
         .1;
@@ -146,10 +137,7 @@ fn dense_output_is_hermite_between_the_steps() {
     // to the error at the ends (|x⁗| ≤ 2 here)
     let p = Problem::new(sin_u(), vector![1.0], (0.0, 2.0));
     let sol = p
-        .solve(
-            ExponentialEuler,
-            &Options::default().rtol(1e-6).atol(1e-6).dense(true),
-        )
+        .solve(ExponentialEuler, &Options::default().rtol(1e-6).atol(1e-6).dense(true))
         .unwrap();
     let err = |t: f64, x: f64| (x - sin_u_exact(t, 1.0)[0]).abs();
     for k in 1..80 {

@@ -143,10 +143,7 @@ fn step_jacobians_match_central_differences() {
     type StepFn<'a> = Box<dyn Fn(SVector<f64, 4>) -> SVector<f64, 4> + 'a>;
     let cases: [(Discretization, StepFn); 3] = [
         (Discretization::Euler, Box::new(|x| step_f64(&sys, Euler, x, &u, h))),
-        (
-            Discretization::Rk45,
-            Box::new(|x| step_f64(&sys, Rk45, x, &u, h)),
-        ),
+        (Discretization::Rk45, Box::new(|x| step_f64(&sys, Rk45, x, &u, h))),
         (
             Discretization::ImplicitEuler,
             Box::new(|x| step_f64(&sys, ImplicitEuler::default(), x, &u, h)),

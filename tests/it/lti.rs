@@ -93,9 +93,7 @@ fn flow_properties() {
     }
     // and it is the flow of x' = A x + B u: matches RK45 at tight tolerance
     let p = Problem::new(&lti, x, (0.0, 3.0)).inputs(u.to_vec());
-    let rk = p
-        .solve(Rk45, &Options::default().rtol(1e-13).atol(1e-15))
-        .unwrap();
+    let rk = p.solve(Rk45, &Options::default().rtol(1e-13).atol(1e-15)).unwrap();
     flow.flow(0.0, &x, &u, 3.0, &mut out);
     assert!(
         (rk.last().1 - out).amax() < 1e-11 * out.amax(),
@@ -130,9 +128,7 @@ fn dynamic_size_and_bad_input() {
     let lti = Lti::<Dyn>::new(a.clone(), b.clone()).unwrap();
     let p = Problem::new(&lti, DVector::from_vec(vec![0.0, 0.0, 0.0]), (0.0, 2.0)).inputs(vec![1.0]);
     let ex = p.solve(Exact::new(lti.flow()), &Options::default()).unwrap();
-    let rk = p
-        .solve(Rk45, &Options::default().rtol(1e-13).atol(1e-15))
-        .unwrap();
+    let rk = p.solve(Rk45, &Options::default().rtol(1e-13).atol(1e-15)).unwrap();
     assert!((ex.last().1 - rk.last().1).amax() < 1e-12);
     // x₁' = −x₁ + 1 from 0: 1 − e^{−t}
     assert!((ex.last().1[0] - (-(-2.0f64).exp_m1())).abs() < 1e-15);

@@ -225,16 +225,12 @@ fn a_captured_cell_is_read_afresh_never_stale() {
     // built with 3000 from the start
     let o = Options::default().rtol(1e-6).atol(1e-9).save(Save::End);
     let x0 = DVector::from_element(n, 1.0);
-    let changed = Problem::new(&f, x0.clone(), (0.0, 1.0))
-        .solve(Rodas5P, &o)
-        .unwrap();
+    let changed = Problem::new(&f, x0.clone(), (0.0, 1.0)).solve(Rodas5P, &o).unwrap();
     let fresh_k = Cell::new(3000.0);
     let fr = &fresh_k;
     let fresh =
         model!(|_, x: [S; Dyn]| DVector::from_fn(x.len(), |i, _| x[i].clone() * -fr.get() - x[i].powi(2) * 0.005));
-    let reference = Problem::new(&fresh, x0, (0.0, 1.0))
-        .solve(Rodas5P, &o)
-        .unwrap();
+    let reference = Problem::new(&fresh, x0, (0.0, 1.0)).solve(Rodas5P, &o).unwrap();
     assert_eq!(changed.stats.accepted, reference.stats.accepted);
     assert_eq!(changed.last().1, reference.last().1);
 }

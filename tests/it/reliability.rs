@@ -210,10 +210,7 @@ fn tiny_tolerances_give_a_typed_error_or_an_answer() {
     for atol in [1e-160, 1e-300, 5e-324] {
         let p = Problem::new(&f, vector![1.0, 0.0], (0.0, 1.0));
         let opts = Options::default().rtol(0.0).atol(atol).max_steps(2000);
-        for r in [
-            p.solve(Rk45, &opts),
-            p.solve(ImplicitEuler::default(), &opts),
-        ] {
+        for r in [p.solve(Rk45, &opts), p.solve(ImplicitEuler::default(), &opts)] {
             match r {
                 Err(Error::StepSizeUnderflow { t, .. } | Error::MaxSteps { t, .. }) => {
                     assert!(t.is_finite() && (0.0..1.0).contains(&t), "atol {atol}: t = {t}")

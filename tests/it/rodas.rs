@@ -367,9 +367,7 @@ fn published<const N: usize, S: System<nalgebra::Const<N>>>(
             .atol(atol)
             .dense(false)
             .max_steps(1_000_000);
-        let sol = Problem::new(&f, y0, (0.0, t_end))
-            .solve(Rodas5P, &opts)
-            .unwrap();
+        let sol = Problem::new(&f, y0, (0.0, t_end)).solve(Rodas5P, &opts).unwrap();
         let (mescd, scd) = digits(sol.last().1, yref, atol, rtol);
         let s = sol.stats;
         println!(
@@ -430,10 +428,7 @@ fn dense_output_matches_tight_solution() {
         .solve(Rk45, &Options::default().rtol(1e-13).atol(1e-13).dense(true))
         .unwrap();
     let sol = p
-        .solve(
-            Rodas5P,
-            &Options::default().rtol(1e-7).atol(1e-9).dense(true),
-        )
+        .solve(Rodas5P, &Options::default().rtol(1e-7).atol(1e-9).dense(true))
         .unwrap();
     assert_eq!(sol.dense_segments().len(), sol.t.len() - 1);
     let grid = sol

@@ -213,16 +213,8 @@ fn sensitivities_equal_central_differences_of_the_whole_solve() {
         &Options::default().rtol(1e-6).atol(1e-8)
     );
     assert!(n > 100, "{n} steps");
-    replay!(
-        "dopri5, adaptive",
-        Rk45,
-        &Options::default().rtol(1e-6).atol(1e-8)
-    );
-    replay!(
-        "rodas5p, adaptive",
-        Rodas5P,
-        &Options::default().rtol(1e-6).atol(1e-8)
-    );
+    replay!("dopri5, adaptive", Rk45, &Options::default().rtol(1e-6).atol(1e-8));
+    replay!("rodas5p, adaptive", Rodas5P, &Options::default().rtol(1e-6).atol(1e-8));
     // with free steps a first-order method's steps depend on μ and x₀ at the level of its
     // global error, which a derivative through the steps taken leaves out: at rtol 1e-9
     // the two differ by about 1e-4 (measured 1.4e-4)
@@ -256,13 +248,7 @@ fn x_part_is_the_plain_solve_bit_for_bit_for_explicit_methods() {
     assert_eq!(plain.t, s.t);
     assert_eq!(plain.x, s.x);
     // with the sensitivities in the error control the steps change (more of them here)
-    let c = sensitivity::solve(
-        &p,
-        Rk45,
-        &o,
-        &SensitivityOptions::default().error_control(true),
-    )
-    .unwrap();
+    let c = sensitivity::solve(&p, Rk45, &o, &SensitivityOptions::default().error_control(true)).unwrap();
     assert!(c.t.len() > s.t.len(), "{} vs {}", c.t.len(), s.t.len());
     assert!(max_rel(&c.last_s(), &s.last_s()) < 1e-6);
 }
@@ -643,13 +629,7 @@ fn dopri5_staggered_scheme_on_a_driven_model() {
         assert!(e < 1e-12, "t = {ta}: interpolated S {e:e}");
     }
     // the end alone and every 4th step: the same S as every step
-    let se = sensitivity::solve(
-        &p,
-        Rk45,
-        &o.clone().save(Save::End),
-        &SensitivityOptions::default(),
-    )
-    .unwrap();
+    let se = sensitivity::solve(&p, Rk45, &o.clone().save(Save::End), &SensitivityOptions::default()).unwrap();
     assert_eq!((se.t.len(), se.last_s()), (2, s.last_s()));
     let s4 = sensitivity::solve(
         &p,
@@ -740,11 +720,7 @@ fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
         unresolved,
     );
     check("bdf", sensitivity::solve(&p, Bdf::default(), &o, &off), unresolved);
-    check(
-        "rodas5p",
-        sensitivity::solve(&p, Rodas5P, &o, &off),
-        unresolved,
-    );
+    check("rodas5p", sensitivity::solve(&p, Rodas5P, &o, &off), unresolved);
     check("auto", sensitivity::solve(&p, Auto::default(), &o, &off), unresolved);
     // exponential Euler is exact on a linear model: its S overflows, a non-finite state
     // (its φ functions no longer round e^{631} to 1 when the forcing is large)
@@ -761,16 +737,8 @@ fn sensitivities_that_the_steps_do_not_resolve_are_an_error_not_a_number() {
             Error::NonFinite { .. } | Error::MaxSteps { .. } | Error::StepSizeUnderflow { .. }
         )
     };
-    check(
-        "rk45, S controlled",
-        sensitivity::solve(&p, Rk45, &o, &on),
-        stops,
-    );
-    check(
-        "rodas5p, S controlled",
-        sensitivity::solve(&p, Rodas5P, &o, &on),
-        stops,
-    );
+    check("rk45, S controlled", sensitivity::solve(&p, Rk45, &o, &on), stops);
+    check("rodas5p, S controlled", sensitivity::solve(&p, Rodas5P, &o, &on), stops);
     // a span the steps can resolve: S = e^{710·0.01} to the tolerance, with error control
     let q = Problem::new(&f, vector![0.0], (0.0, 0.01));
     let s = sensitivity::solve(&q, Rk45, &Options::default().rtol(1e-8), &on).unwrap();

@@ -516,18 +516,14 @@ fn brusselator_end_state_matches_scipy_radau() {
         (
             "rodas5p",
             p.solve(Rodas5P, &o).unwrap(),
-            p.solve(Rodas5P, &o.clone().linear_solver(LinearSolver::Dense))
-                .unwrap(),
+            p.solve(Rodas5P, &o.clone().linear_solver(LinearSolver::Dense)).unwrap(),
         ),
     ] {
         assert_eq!(sparse.stats.accepted, dense.stats.accepted, "{name}: the same steps");
         near_reference(name, (sparse.last().1.clone(), dense.last().1.clone()), 1e-6);
     }
     let tight = p
-        .solve(
-            Rodas5P,
-            &Options::default().rtol(1e-11).atol(1e-11).save(Save::End),
-        )
+        .solve(Rodas5P, &Options::default().rtol(1e-11).atol(1e-11).save(Save::End))
         .unwrap();
     let e = ref_error(tight.last().1);
     println!("rodas5p at 1e-11: {e:.3e}");

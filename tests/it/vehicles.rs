@@ -26,9 +26,7 @@ fn exact_vs_rk45<const N: usize>(
     let p = Problem::new(&sys, x0, (0.0, t_end)).controls(c.clone());
     let ex = p.solve(Exact::new(flow), &Options::default()).unwrap();
     assert_eq!(ex.t.len(), c.times().len(), "one exact step per interval");
-    let rk = p
-        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
-        .unwrap();
+    let rk = p.solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12)).unwrap();
     for (t, x) in ex.t.iter().zip(&ex.x) {
         let k =
             rk.t.iter()
@@ -230,9 +228,7 @@ fn inputs_as_a_closure_of_time() {
         reckon::model!(|t, x: [S; 3]| vector![x[2].cos() * 2.0, x[2].sin() * 2.0, S::from(2.0 * steer(t).tan() / l)]);
     let p = Problem::new(&f, vector![0.0, 0.0, 0.0], (0.0, 3.0));
     // θ(t) = (v/L)∫tan(sin s) ds: check θ against an independent quadrature
-    let sol = p
-        .solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12))
-        .unwrap();
+    let sol = p.solve(Rk45, &Options::default().rtol(1e-12).atol(1e-12)).unwrap();
     let n = 200_000;
     let quad: f64 = (0..n)
         .map(|k| {

@@ -128,10 +128,9 @@ where
     /// too stiff for RK45).
     fn reference_solution(&self) -> Result<Solution<D>> {
         if !self.rk_reference {
-            return self.problem.solve(
-                Rodas5P,
-                &Options::default().rtol(1e-10).atol(1e-10).dense(false),
-            );
+            return self
+                .problem
+                .solve(Rodas5P, &Options::default().rtol(1e-10).atol(1e-10).dense(false));
         }
         self.problem.solve(
             Rk45,

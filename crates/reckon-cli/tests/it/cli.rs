@@ -199,10 +199,7 @@ fn simulate_bicycle_and_carlike_with_parameters() {
     .unwrap();
     let sol = Problem::new(carlike::model(2.5), vector![0.0, 0.0, 0.0, 0.0], (0.0, 4.0))
         .controls(controls)
-        .solve(
-            Rk45,
-            &Options::default().rtol(1e-10).atol(1e-10).dense(false),
-        )
+        .solve(Rk45, &Options::default().rtol(1e-10).atol(1e-10).dense(false))
         .unwrap();
     let last = got.last().unwrap();
     for i in 0..4 {

@@ -14,10 +14,10 @@ use std::marker::PhantomData;
 /// retried because Newton failed.
 ///
 /// ```
-/// use reckon::{model, Options, Problem, methods::ExplicitEuler};
+/// use reckon::{model, Options, Problem, methods::Euler};
 /// use nalgebra::vector;
 /// let f = model!(|_t, x: [S; 1]| vector![-x[0]]);
-/// let s = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(ExplicitEuler, &Options::default().fixed(0.1)).unwrap().stats;
+/// let s = Problem::new(&f, vector![1.0], (0.0, 1.0)).solve(Euler, &Options::default().fixed(0.1)).unwrap().stats;
 /// assert_eq!((s.accepted, s.rhs_evals, s.jacobian_evals), (10, 10, 0)); // one f call per Euler step
 /// ```
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]

@@ -116,10 +116,16 @@ where
         let (crossing_test, never_retries) = (method.crossing_test(), method.never_retries());
         let (controller, error_scale) = (method.controller(), method.error_scale(&w));
         let exact = method.order() == u32::MAX;
-        let stepper = method.stepper(&mut f, t0, x0)?;
+        let mut stepper = method.stepper(&mut f, t0, x0)?;
+        let output = Output::new(opts, problem, x0, dir, stepper.dense_len())?;
+        if output.keep_dense {
+            stepper.dense_needed();
+        }
         let (adaptive, fixed_h) = match (opts.step, error_order) {
             (StepSize::Fixed(h), _) => (false, h),
             (StepSize::Adaptive, Some(_)) => (true, f64::NAN),
+            // an exact flow's one error is its interpolant's: controlled when used
+            (StepSize::Adaptive, None) if exact && output.keep_dense => (true, f64::NAN),
             (StepSize::Adaptive, None) if exact => (false, opts.h_max),
             (StepSize::Adaptive, None) => {
                 return Err(Error::invalid(
@@ -155,7 +161,6 @@ where
                 }
             };
         }
-        let output = Output::new(opts, problem, x0, dir, stepper.dense_len())?;
         let events = EventWatch::new(problem, t0, x0)?;
         Ok(Integrator {
             problem,

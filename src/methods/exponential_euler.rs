@@ -31,7 +31,12 @@ use nalgebra::{DMatrix, DefaultAllocator, Dim, OMatrix, OVector};
 /// one more `(n + 3)`-square exponential per step; `f(t₁, x₁)` is reused as the next
 /// step's `f₀`.
 ///
-/// **Dense output**: cubic Hermite through both ends (third order, above the method's).
+/// **Dense output**: the quartic through both ends, both slopes and the linearisation's
+/// own value at the midpoint (one more exponential per step). When the dense output is
+/// used (events, output times, `Options::dense`) the adaptive estimate also takes the
+/// cubic Hermite interpolant's miss at that midpoint, so a long step across a fast
+/// transient (where the ends are exact and a polynomial between them is not) is
+/// shortened until values between the steps are good to the tolerance.
 ///
 /// ```
 /// use reckon::{model, methods::ExponentialEuler, Options, Problem, StepSize};
@@ -68,6 +73,12 @@ where
     /// `(t₁, x₁)` of the attempt.
     t_new: f64,
     x_new: OVector<f64, D>,
+    /// Whether the driver keeps the dense output ([`Stepper::dense_needed`]).
+    dense: bool,
+    /// The linearisation's flow to the midpoint `t₀ + h/2` of the step `(t₀, h)` in
+    /// `xm_at`.
+    xm: OVector<f64, D>,
+    xm_at: Option<(f64, f64)>,
 }
 
 impl<D: Dim> ExponentialEulerStepper<D>
@@ -97,6 +108,29 @@ where
         self.x_at.copy_from(x);
         self.linearised = true;
         Ok(())
+    }
+    /// `x_m = x₀ + (h/2)·φ₁(hJ/2)·f₀ + (h/2)²·φ₂(hJ/2)·f_t`, the linearisation's own
+    /// value at the midpoint of the step `(t, h)` from `x` (linearised there already).
+    fn midpoint(&mut self, t: f64, h: f64, x: &OVector<f64, D>) {
+        if self.xm_at == Some((t, h)) {
+            return;
+        }
+        let (n, g) = (x.len(), 0.5 * h);
+        let mut wcols = DMatrix::zeros(n, 2);
+        for i in 0..n {
+            wcols[(i, 0)] = g * self.fx[i];
+            wcols[(i, 1)] = g * g * self.dfdt[i];
+        }
+        match phi_combination(&self.h_jac(g), &wcols) {
+            Ok((_, step)) => {
+                for i in 0..n {
+                    self.xm[i] = x[i] + step[i];
+                }
+            }
+            // e^{hJ/2} overflowed (the step's own did not): no midpoint, an infinite miss
+            Err(_) => self.xm.fill(f64::NAN),
+        }
+        self.xm_at = Some((t, h));
     }
     /// `hJ` as a dense matrix.
     fn h_jac(&self, h: f64) -> DMatrix<f64> {
@@ -142,6 +176,9 @@ where
             f_new_valid: false,
             t_new: t0,
             x_new: x0.clone(),
+            dense: false,
+            xm: x0.clone(),
+            xm_at: None,
         })
     }
 }
@@ -172,6 +209,7 @@ where
             wcols[(i, 1)] = h * h * s.dfdt[i];
         }
         s.f_new_valid = false;
+        s.xm_at = None;
         let Ok((_, step)) = phi_combination(&hj, &wcols) else {
             // e^{hJ} overflowed: the solution blows up over this step; the driver
             // reports the non-finite state
@@ -201,9 +239,14 @@ where
             return Ok(Outcome::Done { err: f64::NAN });
         };
         let est = OVector::<f64, D>::from_iterator_generic(x.shape_generic().0, nalgebra::U1, est.iter().copied());
-        Ok(Outcome::Done {
-            err: w.norm(&est, x, x_new),
-        })
+        let mut err = w.norm(&est, x, x_new);
+        if s.dense {
+            // the interpolant between the ends must be as good as they are
+            s.midpoint(t, h, x);
+            let miss = super::dense::midpoint_miss(h, x, x_new, &s.fx, &s.f_new, &s.xm);
+            err = err.max(w.norm(&miss, x, x_new));
+        }
+        Ok(Outcome::Done { err })
     }
     fn accept(&mut self) {
         // f(t₁, x₁) of the estimate is the next step's f₀ (FSAL); J is not
@@ -220,11 +263,16 @@ where
         self.t_at = f64::NAN;
         self.linearised = false;
         self.f_new_valid = false;
+        self.xm_at = None;
+    }
+    fn dense_needed(&mut self) {
+        self.dense = true;
     }
     fn dense_len(&self) -> usize {
-        4
+        5
     }
-    /// Cubic Hermite (`methods::dense::cubic_hermite`) from `f` at both ends.
+    /// The quartic (`methods::dense::quartic_through_midpoint`) through both ends, `f`
+    /// at both ends and the linearisation's flow to the midpoint.
     fn dense<S: System<D>>(
         &mut self,
         f: &mut Eval<'_, D, S>,
@@ -234,18 +282,18 @@ where
         x_new: &OVector<f64, D>,
         c: &mut [OVector<f64, D>],
     ) -> Result<()> {
-        let (c01, c23) = c.split_at_mut(2);
-        if self.t_at == t && self.x_at == *x {
-            c01[1].copy_from(&self.fx);
-        } else {
-            f.rhs(t, x, &mut c01[1])?;
+        if !(self.t_at == t && self.x_at == *x && self.linearised) {
+            self.xm_at = None;
+            self.linearise(f, t, x)?;
         }
+        self.midpoint(t, h, x);
+        c[1].copy_from(&self.fx);
         if self.f_new_valid && self.t_new == t + h && self.x_new == *x_new {
-            c23[1].copy_from(&self.f_new);
+            c[3].copy_from(&self.f_new);
         } else {
-            f.rhs(t + h, x_new, &mut c23[1])?;
+            f.rhs(t + h, x_new, &mut c[3])?;
         }
-        super::dense::cubic_hermite(h, x, x_new, c);
+        super::dense::quartic_through_midpoint(h, x, x_new, &self.xm, c);
         Ok(())
     }
 }

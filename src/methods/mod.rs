@@ -5,8 +5,8 @@
 //! step from `(t, x)` with step `h`; it never loops over time.
 //!
 //! Shared by the methods: the error norm and step-size controller ([`step_size`]),
-//! Newton's iteration ([`newton`]) and its matrix `I − c·J`, and cubic Hermite dense
-//! output.
+//! Newton's iteration ([`newton`]) and its matrix `I − c·J`, and the Hermite dense
+//! output of the methods without one of their own.
 
 use crate::error::Result;
 use crate::methods::step_size::{Controller, Weights};
@@ -173,6 +173,13 @@ where
     fn accept(&mut self) {}
     /// The inputs jumped at a breakpoint: drop anything carried over from the last step.
     fn reset(&mut self) {}
+    /// The driver keeps this run's dense output (events, output times,
+    /// [`Options::dense`](crate::Options::dense)); called once, before the first step. A
+    /// method whose step error says nothing about its interpolant (an exact flow or an
+    /// exponential step, long across a fast transient or a turn) adds the interpolant's
+    /// error to its estimate from then on, so that values between the steps are as good
+    /// as the steps' ends.
+    fn dense_needed(&mut self) {}
     /// Number of coefficients of the dense polynomial `x(t + θh) = Σ_j c_j θʲ`.
     fn dense_len(&self) -> usize {
         2

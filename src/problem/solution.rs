@@ -192,7 +192,8 @@ where
 
     /// The state at any `t` inside the span, `x(t₀ + θh) = Σ_j c_j θʲ` on the step that
     /// holds `t`, from the method's dense output (4th order for RK45, linear for the
-    /// Euler methods, cubic Hermite for exact flows). The polynomials are kept only with
+    /// Euler methods, quartic through the midpoint for exact flows and
+    /// exponential Euler). The polynomials are kept only with
     /// [`Options::dense(true)`](crate::Options::dense); a run without them (the default)
     /// returns [`Error::NoDenseOutput`], which names that fix.
     ///
@@ -217,7 +218,8 @@ where
                 Err(Error::NoDenseOutput { t })
             };
         }
-        let (a, b) = (self.t[0], *self.t.last().unwrap_or(&self.t[0]));
+        // the segments' span: with `Save::At` the saved times need not reach its ends
+        let (a, b) = (self.dense[0].t0, self.dense[self.dense.len() - 1].t1);
         let (lo, hi) = (a.min(b), a.max(b));
         if !(t >= lo && t <= hi) {
             return Err(Error::invalid(

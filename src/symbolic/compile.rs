@@ -597,3 +597,121 @@ impl SparseJacobian for CompiledJacobian {
         Ok(())
     }
 }
+
+/// A vector of expressions of a traced model compiled like [`CompiledJacobian`]:
+/// `out[offsets[k]] ← eₖ(t, x, u)` and every other entry of `out` set to 0. It is how
+/// `f` itself ([`Traced::compile_rhs`](super::Traced::compile_rhs)) and `∂f/∂t`
+/// ([`Traced::compile_time_derivative`](super::Traced::compile_time_derivative)) run as
+/// compiled code, for a model given only as its trace (one traced from Python). Native
+/// code when the program has at most
+/// [`MAX_NATIVE_INSTRUCTIONS`](super::jit::MAX_NATIVE_INSTRUCTIONS) instructions, the
+/// interpreter otherwise, with the same bits.
+///
+/// ```
+/// use reckon::{model, symbolic};
+/// use nalgebra::vector;
+/// let f = model!(|_, x: [S; 2]| vector![x[1].clone(), -x[0].sin()]);
+/// let mut rhs = symbolic::trace(&f, 2).unwrap().compile_rhs();
+/// let mut out = [0.0; 2];
+/// rhs.eval(0.0, &[0.5, 2.0], &[], &mut out).unwrap();
+/// assert_eq!(out, [2.0, -0.5f64.sin()]);
+/// let mut w = [0.0; 2];
+/// rhs.clone().interpreted().eval(0.0, &[0.5, 2.0], &[], &mut w).unwrap();
+/// assert_eq!(out, w);
+/// assert!(rhs.eval(0.0, &[0.5, 2.0], &[], &mut [0.0; 3]).is_err());
+/// ```
+#[derive(Debug, Clone)]
+pub struct CompiledVector {
+    len: usize,
+    program: Program,
+    vals: Vec<f64>,
+    offsets: Vec<usize>,
+    zeros: Vec<usize>,
+    native: Option<Arc<Native>>,
+}
+
+impl CompiledVector {
+    /// `out[offsets[k]] ← output k of program`, the rest of `out` (of `len`) zero.
+    pub(crate) fn new(len: usize, program: Program, offsets: Vec<usize>) -> Self {
+        let mut hit = vec![false; len];
+        for &o in &offsets {
+            hit[o] = true;
+        }
+        let zeros: Vec<usize> = (0..len).filter(|&i| !hit[i]).collect();
+        let native = super::cache::native_code(
+            &program,
+            &[Layout {
+                offsets: offsets.clone(),
+                zeros: zeros.clone(),
+            }],
+        );
+        CompiledVector {
+            len,
+            vals: program.scratch(),
+            program,
+            offsets,
+            zeros,
+            native,
+        }
+    }
+
+    /// The same vector evaluated by the interpreter only.
+    pub fn interpreted(mut self) -> Self {
+        self.native = None;
+        self
+    }
+
+    /// Whether evaluation runs native code.
+    pub fn is_native(&self) -> bool {
+        self.native.is_some()
+    }
+
+    /// The instructions one evaluation runs.
+    pub fn instructions(&self) -> usize {
+        self.program.len()
+    }
+
+    /// The length of the vector.
+    #[allow(clippy::len_without_is_empty)]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// `out ← e(t, x, u)`; [`Error::InvalidInput`](crate::Error::InvalidInput) when `out`
+    /// does not hold [`len`](Self::len) values.
+    pub fn eval(&mut self, t: f64, x: &[f64], u: &[f64], out: &mut [f64]) -> crate::Result<()> {
+        if out.len() != self.len {
+            return Err(crate::Error::invalid(
+                "out",
+                format!("{} values for a vector of {}", out.len(), self.len),
+            ));
+        }
+        if let Some(code) = &self.native
+            && x.len() >= self.program.min_x
+            && u.len() >= self.program.min_u
+        {
+            // SAFETY: as in `CompiledJacobian::native`: the code reads `x[i]` for
+            // `i < min_x ≤ x.len()`, `u[k]` for `k < min_u ≤ u.len()` (checked above), the
+            // constant slots of the template it was generated for, and writes `out[d]` for
+            // `d` in `offsets` and `zeros`, all below `len = out.len()` (checked above).
+            unsafe {
+                code.get(0)(
+                    x.as_ptr(),
+                    u.as_ptr(),
+                    t,
+                    out.as_mut_ptr(),
+                    self.program.template.as_ptr(),
+                )
+            };
+            return Ok(());
+        }
+        self.program.run(t, x, u, &mut self.vals);
+        for &z in &self.zeros {
+            out[z] = 0.0;
+        }
+        for (&o, &s) in self.offsets.iter().zip(&self.program.outputs) {
+            out[o] = self.vals[s as usize];
+        }
+        Ok(())
+    }
+}

@@ -672,11 +672,7 @@ impl Traced {
     /// assert_eq!(out, [3.0, (1.0 - 4.0) * 3.0 - 2.0]);
     /// ```
     pub fn compile_rhs(&self) -> CompiledVector {
-        CompiledVector::new(
-            self.n,
-            compile::Program::new(&self.g, &self.f, &self.params),
-            (0..self.n).collect(),
-        )
+        CompiledVector::new(self.n, &self.g, &self.f, &self.params, (0..self.n).collect())
     }
 
     /// `∂f/∂t` compiled as [`compile_rhs`](Self::compile_rhs) compiles `f` (all zeros for a
@@ -695,7 +691,9 @@ impl Traced {
         let roots: Vec<u32> = self.jt.iter().map(|e| e.1).collect();
         CompiledVector::new(
             self.n,
-            compile::Program::new(&self.g, &roots, &self.params),
+            &self.g,
+            &roots,
+            &self.params,
             self.jt.iter().map(|e| e.0).collect(),
         )
     }

@@ -22,10 +22,65 @@ import numpy as np
 from . import _errors
 from ._errors import *  # noqa: F401,F403  (the exception hierarchy under reckon.Error)
 from ._errors import __all__ as _error_names
-from ._reckon import DenseOutput
+from ._reckon import DenseOutput, Model, Symbol
 from ._reckon import solve as _solve
+from ._reckon import solve_traced as _solve_traced
 
-__all__ = ["solve_ivp", "OdeResult", "DenseOutput", "METHODS", *_error_names]
+#: The functions of a traced value (numpy's ufuncs of the same name work too, on
+#: symbols and on object arrays of them); on numbers and arrays they are numpy's.
+_FUNCTIONS = (
+    "sin", "cos", "tan", "arcsin", "arccos", "arctan", "sinh", "cosh", "tanh", "arcsinh",
+    "arccosh", "arctanh", "exp", "exp2", "expm1", "log", "log1p", "log2", "log10", "sqrt",
+    "cbrt", "square", "sign",
+)
+
+__all__ = [
+    "solve_ivp", "OdeResult", "DenseOutput", "Model", "Symbol", "METHODS", *_FUNCTIONS,
+    "arctan2", "hypot", *_error_names,
+]
+
+
+def _function(name: str) -> Callable[[Any], Any]:
+    ufunc = getattr(np, name)
+
+    def f(x: Any) -> Any:
+        if isinstance(x, Symbol):
+            return getattr(x, name)()
+        return ufunc(x)
+
+    f.__name__ = f.__qualname__ = name
+    f.__doc__ = (
+        f"``{name}(x)``: on a traced value (:class:`reckon.Symbol`) the traced ``{name}``, "
+        f"otherwise ``numpy.{name}(x)``."
+    )
+    return f
+
+
+for _name in _FUNCTIONS:
+    globals()[_name] = _function(_name)
+del _name
+
+# the math module's names
+asin, acos, atan, asinh, acosh, atanh, ln = arcsin, arccos, arctan, arcsinh, arccosh, arctanh, log  # noqa: F821
+
+
+def arctan2(y: Any, x: Any) -> Any:
+    """``atan2(y, x)``: traced when either is a :class:`reckon.Symbol`, else ``numpy.arctan2``."""
+    if isinstance(y, Symbol):
+        return y.arctan2(x)
+    if isinstance(x, Symbol):
+        return (x * 0 + y).arctan2(x)
+    return np.arctan2(y, x)
+
+
+def hypot(a: Any, b: Any) -> Any:
+    """``√(a² + b²)``: traced when either is a :class:`reckon.Symbol`, else ``numpy.hypot``."""
+    if isinstance(a, Symbol) or isinstance(b, Symbol):
+        return (a * a + b * b) ** 0.5
+    return np.hypot(a, b)
+
+
+atan2 = arctan2
 
 #: reckon's methods by the names ``solve_ivp`` takes.
 METHODS = ("RK45", "BDF", "Rodas5P", "Auto", "ImplicitEuler", "ExponentialEuler", "Euler")
@@ -139,6 +194,7 @@ def solve_ivp(
     max_step: float = np.inf,
     fixed_step: float | None = None,
     max_steps: int | None = None,
+    trace: bool | None = None,
     **options: Any,
 ) -> OdeResult:
     """Solve ``y' = fun(t, y)``, ``y(t0) = y0`` on ``t_span`` with one of reckon's methods.
@@ -157,8 +213,17 @@ def solve_ivp(
     ``"Auto"``. ``"Euler"`` takes fixed steps of size ``first_step`` (required).
     ``"RK23"``, ``"DOP853"`` and ``"Radau"`` raise ``ValueError`` naming what to use.
 
-    reckon's extras: ``fixed_step=h`` (fixed steps of size h, any method) and
-    ``max_steps`` (step attempts between two stops, default 100 000).
+    reckon's extras: ``fixed_step=h`` (fixed steps of size h, any method),
+    ``max_steps`` (step attempts between two stops, default 100 000) and ``trace``.
+
+    ``fun`` is first traced (:class:`reckon.Model`: called once with symbols, then run
+    as compiled code with its exact Jacobian, the GIL released while it integrates),
+    unless ``trace=False``, ``jac`` is given or ``vectorized=True``. ``fun`` may also be a
+    :class:`reckon.Model` itself. When ``fun`` cannot be traced (its control flow
+    depends on the state, it calls ``math.*`` or ``float()`` on a value, or it raises
+    on symbols) it is called back instead, with finite differences for the Jacobian;
+    ``result.traced`` says which path ran and ``result.trace_error`` why tracing was
+    refused. ``trace=True`` raises that error instead of falling back.
 
     A Python exception raised in ``fun``, ``jac`` or an event comes out as itself; a
     return of the wrong length is a ``ValueError``; NaN or ±inf is
@@ -169,6 +234,11 @@ def solve_ivp(
     ``t`` and ``y`` then hold the initial point only.
     """
     name = _method_name(method)
+    if isinstance(fun, Model) and (jac is not None or vectorized or args is not None):
+        raise ValueError(
+            "fun is a reckon.Model: its Jacobian is traced and its parameters were fixed when it "
+            "was traced, so jac, vectorized and args do not apply (trace again with Model(fun, n, params=...))"
+        )
     if options:
         warnings.warn(
             "The following arguments have no effect for a chosen solver: "
@@ -184,6 +254,23 @@ def solve_ivp(
     if y0.ndim != 1:
         raise ValueError("`y0` must be 1-dimensional.")
     n = y0.shape[0]
+
+    model = fun if isinstance(fun, Model) else None
+    trace_error = None
+    if model is not None and model.n != n:
+        raise ValueError(f"y0 has {n} values for a reckon.Model of {model.n} states")
+    if model is None and trace is not False:
+        if jac is not None or vectorized:
+            if trace:
+                raise ValueError("trace=True cannot be combined with jac or vectorized=True")
+            trace_error = "not traced: jac or vectorized=True was given"
+        else:
+            try:
+                model = Model(fun, n, params=None if args is None else tuple(args))
+            except Exception as e:  # noqa: BLE001  (any failure on symbols: call fun back)
+                if trace:
+                    raise
+                trace_error = f"{type(e).__name__}: {e}"
 
     if args is not None:
         try:
@@ -224,15 +311,7 @@ def solve_ivp(
     if max_step is None or math.isinf(max_step):
         max_step = math.inf
 
-    r = _solve(
-        fun,
-        t0,
-        tf,
-        [float(v) for v in y0],
-        name,
-        rtol_v,
-        atol_v,
-        jac,
+    common = (
         None if first_step is None else float(first_step),
         float(max_step),
         None if fixed_step is None else float(fixed_step),
@@ -241,6 +320,11 @@ def solve_ivp(
         evs,
         max_steps,
     )
+    y0_list = [float(v) for v in y0]
+    if model is not None:
+        r = _solve_traced(model, t0, tf, y0_list, name, rtol_v, atol_v, *common)
+    else:
+        r = _solve(fun, t0, tf, y0_list, name, rtol_v, atol_v, jac, *common)
 
     error = r.get("error")
     status = -1 if error is not None else (1 if r["terminated"] else 0)
@@ -281,6 +365,8 @@ def solve_ivp(
         method=name,
         jacobian=r["jacobian"] if stats.get("jacobian_evals", r["jac_calls"]) else None,
         error=error,
+        traced=model is not None,
+        trace_error=trace_error,
     )
 
 

@@ -13,12 +13,15 @@
 //! raises the kept exception instead of that error.
 
 mod errors;
+mod traced;
 
 use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
+use reckon::methods::Method;
 use reckon::methods::{Auto, Bdf, Euler, ExponentialEuler, ImplicitEuler, Rk45, Rodas5P};
-use reckon::nalgebra::{DMatrix, DVector, Dyn};
+use reckon::nalgebra::allocator::Allocator;
+use reckon::nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, Dyn, OVector};
 use reckon::{Direction, Event, Options, Problem, Save, Solution, System};
 use std::cell::{Cell, RefCell};
 
@@ -32,21 +35,34 @@ enum Jac<'py> {
 
 /// `y' = fun(t, y)` with `fun` a Python callable: reckon's `System` for a `Dyn` state.
 struct PyModel<'py> {
-    py: Python<'py>,
+    host: Host<'py>,
     fun: Bound<'py, PyAny>,
     jac: Jac<'py>,
     n: usize,
-    /// `numpy.asarray`, for returns that are not float64 arrays.
-    asarray: Bound<'py, PyAny>,
-    /// The first failure of a user function; once set, every call returns NaN.
-    fault: RefCell<Option<PyErr>>,
     /// Calls of `fun` (the library's counted calls and the difference quotients).
     fun_calls: Cell<u64>,
     /// Calls of a callable `jac`.
     jac_calls: Cell<u64>,
 }
 
-impl<'py> PyModel<'py> {
+/// What the Python callbacks of one solve share: the interpreter, `numpy.asarray` (for
+/// returns that are not float64 arrays) and the first failure of a user function.
+struct Host<'py> {
+    py: Python<'py>,
+    asarray: Bound<'py, PyAny>,
+    /// The first failure of a user function; once set, every call returns NaN.
+    fault: RefCell<Option<PyErr>>,
+}
+
+impl<'py> Host<'py> {
+    fn new(py: Python<'py>) -> PyResult<Self> {
+        Ok(Host {
+            py,
+            asarray: py.import("numpy")?.getattr("asarray")?,
+            fault: RefCell::new(None),
+        })
+    }
+
     fn failed(&self) -> bool {
         self.fault.borrow().is_some()
     }
@@ -57,11 +73,21 @@ impl<'py> PyModel<'py> {
             *f = Some(err);
         }
     }
+}
+
+impl<'py> PyModel<'py> {
+    fn failed(&self) -> bool {
+        self.host.failed()
+    }
+
+    fn keep(&self, err: PyErr) {
+        self.host.keep(err)
+    }
 
     /// `out ← fun(t, x)`, or the error that stops the run.
     fn call_fun(&self, t: f64, x: &[f64], out: &mut [f64]) -> PyResult<()> {
         self.fun_calls.set(self.fun_calls.get() + 1);
-        let y = PyArray1::from_slice(self.py, x);
+        let y = PyArray1::from_slice(self.host.py, x);
         let r = self.fun.call1((t, y))?;
         self.read_vector(&r, out, t, "fun")
     }
@@ -72,7 +98,7 @@ impl<'py> PyModel<'py> {
         let arr = match r.cast::<PyArray1<f64>>() {
             Ok(a) => a.clone(),
             Err(_) => {
-                let a = self.asarray.call1((r, "float64")).map_err(|e| {
+                let a = self.host.asarray.call1((r, "float64")).map_err(|e| {
                     pyo3::exceptions::PyValueError::new_err(format!(
                         "{who}(t, y) returned {} that is not an array of floats at t = {t}: {e}",
                         r.get_type().name().map(|n| n.to_string()).unwrap_or_default()
@@ -80,7 +106,7 @@ impl<'py> PyModel<'py> {
                 })?;
                 if a.cast::<numpy::PyUntypedArray>()?.ndim() == 0 && self.n == 1 {
                     out[0] = a.extract::<f64>()?;
-                    return check_finite(self.py, out, t, who);
+                    return check_finite(self.host.py, out, t, who);
                 }
                 match a.cast::<PyArray1<f64>>() {
                     Ok(a) => a.clone(),
@@ -112,7 +138,7 @@ impl<'py> PyModel<'py> {
                 }
             }
         }
-        check_finite(self.py, out, t, who)
+        check_finite(self.host.py, out, t, who)
     }
 
     fn rhs_into(&self, t: f64, x: &[f64], out: &mut [f64]) {
@@ -131,9 +157,9 @@ impl<'py> PyModel<'py> {
             Jac::Constant(m) => jac.copy_from(m),
             Jac::Callable(j) => {
                 self.jac_calls.set(self.jac_calls.get() + 1);
-                let y = PyArray1::from_slice(self.py, x.as_slice());
+                let y = PyArray1::from_slice(self.host.py, x.as_slice());
                 let r = j.call1((t, y))?;
-                let m = read_matrix(&r, &self.asarray, self.n, t)?;
+                let m = read_matrix(&r, &self.host.asarray, self.n, t)?;
                 jac.copy_from(&m);
             }
             Jac::Differences => {
@@ -361,6 +387,111 @@ impl DenseOutput {
     }
 }
 
+/// The options of one solve, from `solve_ivp`'s arguments.
+#[allow(clippy::too_many_arguments)]
+fn options(
+    py: Python<'_>,
+    method: &str,
+    rtol: Vec<f64>,
+    atol: Vec<f64>,
+    first_step: Option<f64>,
+    max_step: f64,
+    fixed_step: Option<f64>,
+    t_eval: Option<Vec<f64>>,
+    dense: bool,
+    max_steps: Option<usize>,
+) -> PyResult<Options> {
+    if !METHODS.contains(&method) {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "unknown method {method:?}"
+        )));
+    }
+    let tol =
+        |v: Vec<f64>| -> reckon::problem::options::Tolerance { if v.len() == 1 { v[0].into() } else { v.into() } };
+    let mut opts = Options::default()
+        .rtol(tol(rtol))
+        .atol(tol(atol))
+        .h_max(max_step)
+        .dense(dense);
+    if let Some(m) = max_steps {
+        opts = opts.max_steps(m);
+    }
+    match (method, fixed_step, first_step) {
+        (_, Some(h), _) => opts = opts.fixed(h),
+        ("Euler", None, Some(h)) => opts = opts.fixed(h),
+        ("Euler", None, None) => {
+            return Err(errors::invalid(
+                py,
+                "first_step",
+                "method=\"Euler\" takes fixed steps: give the step as first_step=h (or fixed_step=h)".into(),
+            ));
+        }
+        (_, None, Some(h)) => opts = opts.h0(h),
+        _ => {}
+    }
+    if let Some(ts) = t_eval {
+        opts = opts.save(Save::At(ts));
+    }
+    Ok(opts)
+}
+
+const METHODS: [&str; 7] = [
+    "RK45",
+    "BDF",
+    "Rodas5P",
+    "Auto",
+    "ImplicitEuler",
+    "ExponentialEuler",
+    "Euler",
+];
+
+/// Solve `problem` with the method named `method` (one of [`METHODS`]).
+fn run<S: System<Dyn>>(problem: Problem<'_, Dyn, S>, method: &str, opts: &Options) -> reckon::Result<Solution<Dyn>> {
+    match method {
+        "RK45" => problem.solve(Rk45, opts),
+        "BDF" => problem.solve(Bdf::default(), opts),
+        "Rodas5P" => problem.solve(Rodas5P, opts),
+        "Auto" => problem.solve(Auto::default(), opts),
+        "ImplicitEuler" => problem.solve(ImplicitEuler::default(), opts),
+        "ExponentialEuler" => problem.solve(ExponentialEuler, opts),
+        _ => problem.solve(Euler, opts),
+    }
+}
+
+/// Watch the Python event functions `events` in `problem`, their failures kept in `host`.
+fn with_events<'a, S: System<Dyn>>(
+    mut problem: Problem<'a, Dyn, S>,
+    events: &'a [(Bound<'a, PyAny>, bool, f64)],
+    host: &'a Host<'a>,
+) -> Problem<'a, Dyn, S> {
+    for (g, terminal, direction) in events {
+        let g = g.clone();
+        let mut e = Event::new(move |t: f64, x: &DVector<f64>| {
+            if host.failed() {
+                return f64::NAN;
+            }
+            let y = PyArray1::from_slice(host.py, x.as_slice());
+            match g.call1((t, y)).and_then(|r| event_value(&r, &host.asarray, t)) {
+                Ok(v) => v,
+                Err(e) => {
+                    host.keep(e);
+                    f64::NAN
+                }
+            }
+        });
+        e = match *direction {
+            d if d > 0.0 => e.direction(Direction::Rising),
+            d if d < 0.0 => e.direction(Direction::Falling),
+            _ => e,
+        };
+        if *terminal {
+            e = e.terminal();
+        }
+        problem = problem.event(e);
+    }
+    problem
+}
+
 /// Integrate `y' = fun(t, y)`, `y(t0) = y0` to `t1` with `method`, calling `fun` back.
 ///
 /// Returns a dict with `t`, `y` (n × m), `events` (one `(t, y)` pair of lists per event
@@ -390,108 +521,154 @@ fn solve<'py>(
     max_steps: Option<usize>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let n = y0.len();
-    let asarray = py.import("numpy")?.getattr("asarray")?;
+    let host = Host::new(py)?;
     let jac = match jac {
         None => Jac::Differences,
         Some(j) if j.is_callable() => Jac::Callable(j),
-        Some(j) => Jac::Constant(read_matrix(&j, &asarray, n, t0)?),
+        Some(j) => Jac::Constant(read_matrix(&j, &host.asarray, n, t0)?),
     };
     let jac_kind = match &jac {
         Jac::Callable(_) => "jac",
         Jac::Constant(_) => "constant jac",
         Jac::Differences => "finite differences",
     };
+    let opts = options(
+        py, method, rtol, atol, first_step, max_step, fixed_step, t_eval, dense, max_steps,
+    )?;
     let model = PyModel {
-        py,
+        host,
         fun,
         jac,
         n,
-        asarray,
-        fault: RefCell::new(None),
         fun_calls: Cell::new(0),
         jac_calls: Cell::new(0),
     };
-    let tol =
-        |v: Vec<f64>| -> reckon::problem::options::Tolerance { if v.len() == 1 { v[0].into() } else { v.into() } };
-    let mut opts = Options::default()
-        .rtol(tol(rtol))
-        .atol(tol(atol))
-        .h_max(max_step)
-        .dense(dense);
-    if let Some(m) = max_steps {
-        opts = opts.max_steps(m);
-    }
-    match (method, fixed_step, first_step) {
-        (_, Some(h), _) => opts = opts.fixed(h),
-        ("Euler", None, Some(h)) => opts = opts.fixed(h),
-        ("Euler", None, None) => {
-            return Err(errors::invalid(
-                py,
-                "first_step",
-                "method=\"Euler\" takes fixed steps: give the step as first_step=h (or fixed_step=h)".into(),
-            ));
-        }
-        (_, None, Some(h)) => opts = opts.h0(h),
-        _ => {}
-    }
-    if let Some(ts) = t_eval {
-        opts = opts.save(Save::At(ts));
-    }
     let y0_kept = y0.clone();
-    let mut problem = Problem::new(&model, DVector::from_vec(y0), (t0, t1));
-    let model_ref = &model;
-    for (g, terminal, direction) in &events {
-        let g = g.clone();
-        let mut e = Event::new(move |t: f64, x: &DVector<f64>| {
-            if model_ref.failed() {
-                return f64::NAN;
-            }
-            let y = PyArray1::from_slice(model_ref.py, x.as_slice());
-            match g.call1((t, y)).and_then(|r| event_value(&r, &model_ref.asarray, t)) {
-                Ok(v) => v,
-                Err(e) => {
-                    model_ref.keep(e);
-                    f64::NAN
-                }
-            }
-        });
-        e = match *direction {
-            d if d > 0.0 => e.direction(Direction::Rising),
-            d if d < 0.0 => e.direction(Direction::Falling),
-            _ => e,
-        };
-        if *terminal {
-            e = e.terminal();
-        }
-        problem = problem.event(e);
-    }
-    let result = match method {
-        "RK45" => problem.solve(Rk45, &opts),
-        "BDF" => problem.solve(Bdf::default(), &opts),
-        "Rodas5P" => problem.solve(Rodas5P, &opts),
-        "Auto" => problem.solve(Auto::default(), &opts),
-        "ImplicitEuler" => problem.solve(ImplicitEuler::default(), &opts),
-        "ExponentialEuler" => problem.solve(ExponentialEuler, &opts),
-        "Euler" => problem.solve(Euler, &opts),
-        other => {
-            return Err(pyo3::exceptions::PyValueError::new_err(format!(
-                "unknown method {other:?}"
-            )));
-        }
-    };
-    drop(problem);
-    if let Some(e) = model.fault.borrow_mut().take() {
+    let problem = with_events(
+        Problem::new(&model, DVector::from_vec(y0), (t0, t1)),
+        &events,
+        &model.host,
+    );
+    let result = run(problem, method, &opts);
+    if let Some(e) = model.host.fault.borrow_mut().take() {
         return Err(e);
     }
-    let out = PyDict::new(py);
-    out.set_item("jacobian", jac_kind)?;
+    let terminal: Vec<bool> = events.iter().map(|e| e.1).collect();
+    let out = result_dict(py, result, (t0, &y0_kept), &terminal, dense, jac_kind)?;
     out.set_item("fun_calls", model.fun_calls.get())?;
     out.set_item("jac_calls", model.jac_calls.get())?;
+    let stats = out.get_item("stats")?.expect("set by result_dict");
+    stats.set_item("fun_calls", model.fun_calls.get())?;
+    stats.set_item("jac_calls", model.jac_calls.get())?;
+    Ok(out)
+}
+
+/// Integrate the traced `model` as [`solve`] integrates a Python function, on its compiled
+/// code: with no event function the GIL is released for the whole solve (other Python
+/// threads run meanwhile); event functions are Python calls, so with them it is held.
+#[pyfunction]
+#[pyo3(signature = (model, t0, t1, y0, method, rtol, atol, first_step, max_step, fixed_step, t_eval, dense, events, max_steps))]
+#[allow(clippy::too_many_arguments)]
+fn solve_traced<'py>(
+    py: Python<'py>,
+    model: Bound<'py, traced::Model>,
+    t0: f64,
+    t1: f64,
+    y0: Vec<f64>,
+    method: &str,
+    rtol: Vec<f64>,
+    atol: Vec<f64>,
+    first_step: Option<f64>,
+    max_step: f64,
+    fixed_step: Option<f64>,
+    t_eval: Option<Vec<f64>>,
+    dense: bool,
+    events: Vec<(Bound<'py, PyAny>, bool, f64)>,
+    max_steps: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let m = model.get();
+    if y0.len() != m.n {
+        return Err(errors::invalid(
+            py,
+            "y0",
+            format!("{} values for a traced model of {} states", y0.len(), m.n),
+        ));
+    }
+    let opts = options(
+        py, method, rtol, atol, first_step, max_step, fixed_step, t_eval, dense, max_steps,
+    )?;
+    let y0_kept = y0.clone();
+    let result = if events.is_empty() {
+        py.detach(|| {
+            let sys = traced::TracedSystem::new(m);
+            run(Problem::new(&sys, DVector::from_vec(y0), (t0, t1)), method, &opts)
+        })
+    } else {
+        let host = Host::new(py)?;
+        let sys = traced::TracedSystem::new(m);
+        let guarded = Guarded {
+            inner: &sys,
+            host: &host,
+        };
+        let problem = with_events(Problem::new(&guarded, DVector::from_vec(y0), (t0, t1)), &events, &host);
+        let result = run(problem, method, &opts);
+        if let Some(e) = host.fault.borrow_mut().take() {
+            return Err(e);
+        }
+        result
+    };
+    let terminal: Vec<bool> = events.iter().map(|e| e.1).collect();
+    let out = result_dict(py, result, (t0, &y0_kept), &terminal, dense, "traced")?;
+    out.set_item("fun_calls", 0)?;
+    out.set_item("jac_calls", 0)?;
+    let stats = out.get_item("stats")?.expect("set by result_dict");
+    stats.set_item("fun_calls", 0)?;
+    stats.set_item("jac_calls", 0)?;
+    Ok(out)
+}
+
+/// A system that gives NaN once a Python event function has failed, so the run stops.
+struct Guarded<'a, S> {
+    inner: S,
+    host: &'a Host<'a>,
+}
+
+impl<S: System<Dyn>> System<Dyn> for Guarded<'_, S> {
+    fn rhs(&self, t: f64, x: &DVector<f64>, u: &[f64], dx: &mut DVector<f64>) {
+        if self.host.failed() {
+            dx.fill(f64::NAN);
+        } else {
+            self.inner.rhs(t, x, u, dx);
+        }
+    }
+    fn jacobian(&self, t: f64, x: &DVector<f64>, u: &[f64], jac: &mut DMatrix<f64>) {
+        self.inner.jacobian(t, x, u, jac);
+    }
+    fn time_derivative(&self, t: f64, x: &DVector<f64>, u: &[f64], dfdt: &mut DVector<f64>) -> bool {
+        self.inner.time_derivative(t, x, u, dfdt)
+    }
+    fn sparse_jacobian(&self, n: usize) -> Option<Box<dyn reckon::jacobian::SparseJacobian + '_>> {
+        self.inner.sparse_jacobian(n)
+    }
+}
+
+/// The dict `solve_ivp` reads, from the library's result.
+fn result_dict<'py>(
+    py: Python<'py>,
+    result: reckon::Result<Solution<Dyn>>,
+    (t0, y0): (f64, &[f64]),
+    terminal_events: &[bool],
+    dense: bool,
+    jac_kind: &str,
+) -> PyResult<Bound<'py, PyDict>> {
+    let n = y0.len();
+    let out = PyDict::new(py);
+    out.set_item("jacobian", jac_kind)?;
     let sol = match result {
         Ok(sol) => sol,
         Err(e) if errors::is_failure(&e) => {
             out.set_item("error", errors::to_py(py, &e))?;
-            let y = PyArray1::from_slice(py, &y0_kept);
+            let y = PyArray1::from_slice(py, y0);
             out.set_item("t", PyArray1::from_vec(py, vec![t0]))?;
             out.set_item("y", y.reshape([n, 1])?)?;
             out.set_item("sol", py.None())?;
@@ -513,12 +690,12 @@ fn solve<'py>(
     }
     out.set_item("t", PyArray1::from_slice(py, &sol.t))?;
     out.set_item("y", PyArray1::from_vec(py, flat).reshape([n, m])?)?;
-    let mut per_event: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); events.len()];
+    let mut per_event: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); terminal_events.len()];
     let mut terminated = false;
     for hit in &sol.events {
         per_event[hit.index].0.push(hit.t);
         per_event[hit.index].1.extend(hit.x.iter().copied());
-        terminated |= events[hit.index].1;
+        terminated |= terminal_events[hit.index];
     }
     let ev = PyList::empty(py);
     for (ts, ys) in per_event {
@@ -543,8 +720,6 @@ fn solve<'py>(
     stats.set_item("newton_iterations", s.newton_iterations)?;
     stats.set_item("accepted", s.accepted)?;
     stats.set_item("rejected", s.rejected)?;
-    stats.set_item("fun_calls", model.fun_calls.get())?;
-    stats.set_item("jac_calls", model.jac_calls.get())?;
     out.set_item("stats", stats)?;
     match sol.stiffness {
         Some(st) => {
@@ -573,9 +748,97 @@ fn solve<'py>(
     Ok(out)
 }
 
+/// The same problems solved by reckon's own `model!` models (`reckon::studies::problems`),
+/// timed in Rust: the reference of `bench/traced.py`. `problem` is `"robertson"`,
+/// `"vdp"` (μ = `param`) or `"brusselator"` (`param` grid points, 2·param states);
+/// returns the best wall time of `repeats` solves in seconds, the end state and the
+/// steps taken. Not part of the public API.
+#[pyfunction]
+#[pyo3(signature = (problem, param, method, t1, rtol, atol, repeats))]
+#[allow(clippy::too_many_arguments)]
+fn _rust_reference(
+    py: Python<'_>,
+    problem: &str,
+    param: f64,
+    method: &str,
+    t1: f64,
+    rtol: f64,
+    atol: f64,
+    repeats: usize,
+) -> PyResult<(f64, Vec<f64>, u64)> {
+    use reckon::studies::problems as p;
+    let opts = Options::default().rtol(rtol).atol(atol).save(Save::At(vec![t1]));
+    if !["BDF", "Rodas5P", "RK45"].contains(&method) {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "unknown method {method:?}"
+        )));
+    }
+    fn time<D, S>(
+        sys: S,
+        y0: OVector<f64, D>,
+        t1: f64,
+        method: &str,
+        opts: &Options,
+        repeats: usize,
+    ) -> reckon::Result<(f64, Vec<f64>, u64)>
+    where
+        D: Dim,
+        S: System<D>,
+        DefaultAllocator: Allocator<D>,
+        Bdf: Method<D>,
+        Rodas5P: Method<D>,
+        Rk45: Method<D>,
+    {
+        let mut best = f64::INFINITY;
+        let mut last = (Vec::new(), 0);
+        for _ in 0..repeats.max(1) {
+            let start = std::time::Instant::now();
+            let problem = Problem::new(&sys, y0.clone(), (0.0, t1));
+            let sol = match method {
+                "BDF" => problem.solve(Bdf::default(), opts),
+                "Rodas5P" => problem.solve(Rodas5P, opts),
+                _ => problem.solve(Rk45, opts),
+            }?;
+            best = best.min(start.elapsed().as_secs_f64());
+            last = (
+                sol.x.last().map(|x| x.as_slice().to_vec()).unwrap_or_default(),
+                sol.stats.accepted,
+            );
+        }
+        Ok((best, last.0, last.1))
+    }
+    let r = py.detach(|| match problem {
+        "robertson" => time(
+            p::robertson(),
+            reckon::nalgebra::Vector3::new(1.0, 0.0, 0.0),
+            t1,
+            method,
+            &opts,
+            repeats,
+        ),
+        "vdp" => time(
+            p::van_der_pol(param),
+            reckon::nalgebra::Vector2::new(2.0, 0.0),
+            t1,
+            method,
+            &opts,
+            repeats,
+        ),
+        _ => {
+            let n = param as usize;
+            time(p::brusselator(n), p::brusselator_y0(n), t1, method, &opts, repeats)
+        }
+    });
+    r.map_err(|e| errors::to_py(py, &e))
+}
+
 #[pymodule]
 fn _reckon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve, m)?)?;
+    m.add_function(wrap_pyfunction!(solve_traced, m)?)?;
+    m.add_function(wrap_pyfunction!(_rust_reference, m)?)?;
     m.add_class::<DenseOutput>()?;
+    m.add_class::<traced::Model>()?;
+    m.add_class::<traced::Symbol>()?;
     Ok(())
 }

@@ -95,17 +95,19 @@ def vdp_reference():
 
 
 @pytest.mark.parametrize("method", STIFF)
-@pytest.mark.parametrize("jac", [None, vdp_jac], ids=["finite-differences", "jac"])
+@pytest.mark.parametrize("jac", [None, vdp_jac, "traced"], ids=["finite-differences", "jac", "traced"])
 def test_van_der_pol_mu_1000(method, jac, vdp_reference):
     s = vdp_reference
+    traced = jac == "traced"
     r = reckon.solve_ivp(vdp, (0.0, 3000.0), [2.0, 0.0], method=method, t_eval=s.t, args=(1000.0,),
-                         jac=jac, rtol=1e-8, atol=1e-8)
+                         jac=None if traced else jac, rtol=1e-8, atol=1e-8, trace=traced)
+    assert r.traced == traced
     assert r.success
     np.testing.assert_array_equal(r.t, s.t)
     close(r.y, s.y, 1e-5, 1e-7)
     if method != "Auto" or r.switches:
         assert r.njev > 0 and r.nlu > 0
-        assert r.jacobian == ("jac" if jac else "finite differences")
+        assert r.jacobian == ("traced" if traced else "jac" if jac else "finite differences")
     # ~100× fewer right-hand sides than the explicit method would need
     assert r.nfev < 20_000
 
@@ -329,4 +331,5 @@ def test_heat_equation_decays_as_its_eigenmode(method, jac):
                          jac=lap if jac == "sparse" else None, rtol=1e-8, atol=1e-12)
     assert r.success and r.t[-1] == 0.2
     close(r.y, np.outer(u0, np.exp(lam * r.t)), 1e-6 if t_eval else 1e-12, 1e-12)
-    assert r.jacobian == ("constant jac" if jac == "sparse" else "finite differences")
+    # without jac the function traces (dense @ u on symbols): the exact compiled Jacobian
+    assert r.jacobian == ("constant jac" if jac == "sparse" else "traced")

@@ -597,3 +597,168 @@ impl SparseJacobian for CompiledJacobian {
         Ok(())
     }
 }
+
+/// A vector of expressions of a traced model compiled like [`CompiledJacobian`]:
+/// `out[offsets[k]] ← eₖ(t, x, u)` and every other entry of `out` set to 0. It is how
+/// `f` itself ([`Traced::compile_rhs`](super::Traced::compile_rhs)) and `∂f/∂t`
+/// ([`Traced::compile_time_derivative`](super::Traced::compile_time_derivative)) run as
+/// compiled code, for a model given only as its trace (one traced from Python).
+///
+/// A program longer than [`MAX_NATIVE_INSTRUCTIONS`](super::jit::MAX_NATIVE_INSTRUCTIONS)
+/// is split into consecutive runs of outputs, each flattened on its own (a subexpression
+/// two runs share is computed in both) and translated into machine code when it is short
+/// enough; a run that stays too long is interpreted. Every run gives the interpreter's
+/// bits.
+///
+/// ```
+/// use reckon::{model, symbolic};
+/// use nalgebra::vector;
+/// let f = model!(|_, x: [S; 2]| vector![x[1].clone(), -x[0].sin()]);
+/// let mut rhs = symbolic::trace(&f, 2).unwrap().compile_rhs();
+/// let mut out = [0.0; 2];
+/// rhs.eval(0.0, &[0.5, 2.0], &[], &mut out).unwrap();
+/// assert_eq!(out, [2.0, -0.5f64.sin()]);
+/// let mut w = [0.0; 2];
+/// rhs.clone().interpreted().eval(0.0, &[0.5, 2.0], &[], &mut w).unwrap();
+/// assert_eq!(out, w);
+/// assert!(rhs.eval(0.0, &[0.5, 2.0], &[], &mut [0.0; 3]).is_err());
+///
+/// // a long f (the Brusselator on 3 000 points: 6 000 states) runs natively in runs of
+/// // outputs, with the interpreter's bits and the model's values
+/// use reckon::{studies::problems::{brusselator, brusselator_y0}, System};
+/// let (f, y) = (brusselator(3000), brusselator_y0(3000));
+/// let mut rhs = symbolic::trace(&f, 6000).unwrap().compile_rhs();
+/// assert_eq!(rhs.is_native(), symbolic::jit::MAX_NATIVE_INSTRUCTIONS > 0);
+/// let (mut a, mut b) = (vec![0.0; 6000], vec![0.0; 6000]);
+/// rhs.eval(0.0, y.as_slice(), &[], &mut a).unwrap();
+/// rhs.clone().interpreted().eval(0.0, y.as_slice(), &[], &mut b).unwrap();
+/// assert_eq!(a, b);
+/// let mut dx = y.clone();
+/// f.rhs(0.0, &y, &[], &mut dx);
+/// assert!(a.iter().zip(dx.iter()).all(|(p, q)| (p - q).abs() <= 1e-9 * q.abs().max(1.0)));
+/// ```
+#[derive(Debug, Clone)]
+pub struct CompiledVector {
+    len: usize,
+    parts: Vec<Part>,
+    zeros: Vec<usize>,
+}
+
+/// One run of outputs of a [`CompiledVector`]: `out[offsets[k]] ← output k of program`.
+#[derive(Debug, Clone)]
+struct Part {
+    program: Program,
+    vals: Vec<f64>,
+    offsets: Vec<usize>,
+    native: Option<Arc<Native>>,
+}
+
+impl Part {
+    fn new(program: Program, offsets: Vec<usize>) -> Part {
+        let native = super::cache::native_code(
+            &program,
+            &[Layout {
+                offsets: offsets.clone(),
+                zeros: Vec::new(),
+            }],
+        );
+        Part {
+            vals: program.scratch(),
+            program,
+            offsets,
+            native,
+        }
+    }
+}
+
+impl CompiledVector {
+    /// `out[offsets[k]] ← roots[k]` of `g` with the parameters `p`, the rest of `out` (of
+    /// `len`) zero.
+    pub(crate) fn new(len: usize, g: &Graph, roots: &[u32], p: &[f64], offsets: Vec<usize>) -> Self {
+        let mut hit = vec![false; len];
+        for &o in &offsets {
+            hit[o] = true;
+        }
+        let zeros: Vec<usize> = (0..len).filter(|&i| !hit[i]).collect();
+        let whole = Program::new(g, roots, p);
+        let limit = super::jit::MAX_NATIVE_INSTRUCTIONS;
+        let parts = if whole.len() <= limit || roots.len() < 2 || limit == 0 {
+            vec![Part::new(whole, offsets)]
+        } else {
+            // runs of outputs of about 4/5 of the limit each (a run also recomputes what it
+            // shares with its neighbours)
+            let runs = whole.len().div_ceil(limit * 4 / 5).min(roots.len());
+            let per = roots.len().div_ceil(runs);
+            roots
+                .chunks(per)
+                .zip(offsets.chunks(per))
+                .map(|(r, o)| Part::new(Program::new(g, r, p), o.to_vec()))
+                .collect()
+        };
+        CompiledVector { len, parts, zeros }
+    }
+
+    /// The same vector evaluated by the interpreter only.
+    pub fn interpreted(mut self) -> Self {
+        for part in &mut self.parts {
+            part.native = None;
+        }
+        self
+    }
+
+    /// Whether evaluation runs native code (for every run of outputs).
+    pub fn is_native(&self) -> bool {
+        self.parts.iter().all(|p| p.native.is_some())
+    }
+
+    /// The instructions one evaluation runs.
+    pub fn instructions(&self) -> usize {
+        self.parts.iter().map(|p| p.program.len()).sum()
+    }
+
+    /// The length of the vector.
+    #[allow(clippy::len_without_is_empty)]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// `out ← e(t, x, u)`; [`Error::InvalidInput`](crate::Error::InvalidInput) when `out`
+    /// does not hold [`len`](Self::len) values.
+    pub fn eval(&mut self, t: f64, x: &[f64], u: &[f64], out: &mut [f64]) -> crate::Result<()> {
+        if out.len() != self.len {
+            return Err(crate::Error::invalid(
+                "out",
+                format!("{} values for a vector of {}", out.len(), self.len),
+            ));
+        }
+        for &z in &self.zeros {
+            out[z] = 0.0;
+        }
+        for part in &mut self.parts {
+            if let Some(code) = &part.native
+                && x.len() >= part.program.min_x
+                && u.len() >= part.program.min_u
+            {
+                // SAFETY: as in `CompiledJacobian::native`: the code reads `x[i]` for
+                // `i < min_x ≤ x.len()`, `u[k]` for `k < min_u ≤ u.len()` (checked above),
+                // the constant slots of the template it was generated for, and writes
+                // `out[d]` for `d` in `offsets`, all below `len = out.len()` (checked above).
+                unsafe {
+                    code.get(0)(
+                        x.as_ptr(),
+                        u.as_ptr(),
+                        t,
+                        out.as_mut_ptr(),
+                        part.program.template.as_ptr(),
+                    )
+                };
+                continue;
+            }
+            part.program.run(t, x, u, &mut part.vals);
+            for (&o, &s) in part.offsets.iter().zip(&part.program.outputs) {
+                out[o] = part.vals[s as usize];
+            }
+        }
+        Ok(())
+    }
+}

@@ -66,7 +66,7 @@ mod print;
 mod sym;
 
 pub use cache::{CacheStats, TraceCounts, cache_stats, clear_cache};
-pub use compile::CompiledJacobian;
+pub use compile::{CompiledJacobian, CompiledVector};
 pub use graph::Func;
 pub use sym::{Sym, plain_time};
 
@@ -658,6 +658,63 @@ impl Traced {
         CompiledJacobian::new(self.pattern(), compile::Program::new(&self.g, &roots, &self.params))
     }
 
+    /// `f` compiled into an instruction list, and into machine code when it is short
+    /// enough (see [`CompiledVector`]): the right-hand side of a model given only as its
+    /// trace.
+    ///
+    /// ```
+    /// use reckon::{model, symbolic};
+    /// use nalgebra::vector;
+    /// let f = model!(|_, x: [S; 2]| vector![x[1].clone(), (1.0 - x[0] * x[0]) * x[1] - x[0]]);
+    /// let mut rhs = symbolic::trace(&f, 2).unwrap().compile_rhs();
+    /// let mut out = [0.0; 2];
+    /// rhs.eval(0.0, &[2.0, 3.0], &[], &mut out).unwrap();
+    /// assert_eq!(out, [3.0, (1.0 - 4.0) * 3.0 - 2.0]);
+    /// ```
+    pub fn compile_rhs(&self) -> CompiledVector {
+        CompiledVector::new(self.n, &self.g, &self.f, &self.params, (0..self.n).collect())
+    }
+
+    /// `∂f/∂t` compiled as [`compile_rhs`](Self::compile_rhs) compiles `f` (all zeros for a
+    /// model that does not read the time symbol).
+    ///
+    /// ```
+    /// use reckon::{model, symbolic};
+    /// use nalgebra::vector;
+    /// let f = model!(|t: S, x: [S; 2]| vector![x[1].clone(), x[0] * t.sin()]);
+    /// let mut dt = symbolic::trace(&f, 2).unwrap().compile_time_derivative();
+    /// let mut out = [1.0; 2];
+    /// dt.eval(0.5, &[2.0, 3.0], &[], &mut out).unwrap();
+    /// assert_eq!(out, [0.0, 2.0 * 0.5f64.cos()]);
+    /// ```
+    pub fn compile_time_derivative(&self) -> CompiledVector {
+        let roots: Vec<u32> = self.jt.iter().map(|e| e.1).collect();
+        CompiledVector::new(
+            self.n,
+            &self.g,
+            &roots,
+            &self.params,
+            self.jt.iter().map(|e| e.0).collect(),
+        )
+    }
+
+    /// Whether `f` reads the time symbol (`∂f/∂t` has a non-zero).
+    pub fn reads_time(&self) -> bool {
+        !self.jt.is_empty()
+    }
+
+    /// The same trace printing with these parameter names (missing ones print as `pₖ`).
+    ///
+    /// ```
+    /// use reckon::symbolic;
+    /// let tr = symbolic::trace_fn("decay", 1, &[2.0], |_t, x, p| vec![-(p[0] * x[0])]).unwrap();
+    /// assert_eq!(tr.with_param_names(&["k"]).jacobian_text(), "∂ẋ₀/∂x₀ = −k\n");
+    /// ```
+    pub fn with_param_names(mut self, params: &[&str]) -> Self {
+        self.names.params = params.iter().map(|s| s.to_string()).collect();
+        self
+    }
+
     fn text_of(&self, id: u32) -> String {
         print::text(&self.g, id, &self.names)
     }
@@ -895,6 +952,36 @@ impl Traced {
             "pattern": { "n": p.n(), "nnz": p.nnz(), "col_ptr": p.col_ptr(), "row_idx": p.row_idx() },
         })
     }
+}
+
+/// Trace a right-hand side given as a function `body(t, x, p)` of traced values: the
+/// time `t`, the `n` states `xᵢ` and the parameters `pₖ` (leaves with the values
+/// `params`), returning `f` (`n` traced values). It is how a model defined outside Rust
+/// (a Python function called once on traced values) becomes a [`Traced`]; a `model!`
+/// closure is traced with [`trace`].
+///
+/// `Err(`[`Error::Untraceable`]`)` when the body compares a traced value or computes with a
+/// non-finite number; [`Error::InvalidInput`] when it returns other than `n` values.
+///
+/// ```
+/// use reckon::symbolic;
+/// // Van der Pol with μ a parameter
+/// let tr = symbolic::trace_fn("vdp", 2, &[1000.0], |_t, x, p| {
+///     vec![x[1], p[0] * (1.0 - x[0] * x[0]) * x[1] - x[0]]
+/// })
+/// .unwrap();
+/// assert_eq!(tr.jacobian_entry(0, 1).unwrap().constant(), Some(1.0));
+/// assert_eq!(tr.jacobian_entry(1, 1).unwrap().eval(0.0, &[2.0, 0.0], &[]), 1000.0 * (1.0 - 4.0));
+/// assert!(symbolic::trace_fn("short", 2, &[], |_t, x, _p| vec![x[0]]).is_err());
+/// ```
+pub fn trace_fn<H>(model: &str, n: usize, params: &[f64], body: H) -> Result<Traced>
+where
+    H: Fn(Sym, &[Sym], &[Sym]) -> Vec<Sym>,
+{
+    let body = TraceParamsFn::new(false, |t: Sym, x: &nalgebra::DVector<Sym>, _u: &[Sym], p: &[Sym]| {
+        nalgebra::DVector::from_vec(body(t, x.as_slice(), p))
+    });
+    trace_body::<nalgebra::Dyn, _>(&body, model, &Shape { n, m: 0, p: params })
 }
 
 /// Trace `model` (a [`model!`](crate::model) closure) for a state of `n` components

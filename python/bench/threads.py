@@ -16,25 +16,7 @@ import time
 import numpy as np
 
 import reckon
-
-
-def brusselator(N):
-    c = (N + 1.0) ** 2 / 50.0
-
-    def f(t, y):
-        u, v = y[0::2], y[1::2]
-        up = np.concatenate(([1.0], u, [1.0]))
-        vp = np.concatenate(([3.0], v, [3.0]))
-        uuv = u * u * v
-        out = np.empty(2 * N, dtype=y.dtype)
-        out[0::2] = uuv - u * 4.0 + 1.0 + (up[:-2] + up[2:] - u * 2.0) * c
-        out[1::2] = u * 3.0 - uuv + (vp[:-2] + vp[2:] - v * 2.0) * c
-        return out
-
-    x = np.arange(1, N + 1) / (N + 1.0)
-    y0 = np.empty(2 * N)
-    y0[0::2], y0[1::2] = 1 + 0.5 * np.sin(2 * np.pi * x), 3.0
-    return f, y0
+from traced import brusselator  # bench/traced.py, beside this script
 
 
 def main():

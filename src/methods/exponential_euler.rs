@@ -115,20 +115,11 @@ where
         if self.xm_at == Some((t, h)) {
             return;
         }
-        let (n, g) = (x.len(), 0.5 * h);
-        let mut wcols = DMatrix::zeros(n, 2);
-        for i in 0..n {
-            wcols[(i, 0)] = g * self.fx[i];
-            wcols[(i, 1)] = g * g * self.dfdt[i];
-        }
-        match phi_combination(&self.h_jac(g), &wcols) {
-            Ok((_, step)) => {
-                for i in 0..n {
-                    self.xm[i] = x[i] + step[i];
-                }
-            }
+        let g = 0.5 * h;
+        let hj = self.h_jac(g);
+        if !linear_flow(&self.fx, &self.dfdt, &hj, g, x, &mut self.xm) {
             // e^{hJ/2} overflowed (the step's own did not): no midpoint, an infinite miss
-            Err(_) => self.xm.fill(f64::NAN),
+            self.xm.fill(f64::NAN);
         }
         self.xm_at = Some((t, h));
     }
@@ -137,6 +128,35 @@ where
         let n = self.jac.nrows();
         DMatrix::from_fn(n, n, |r, c| h * self.jac[(r, c)])
     }
+}
+
+/// The linearisation's flow over `h` from `x` into `out`:
+/// `x + h·φ₁(hJ)·f₀ + h²·φ₂(hJ)·f_t`, with `hj = hJ`, `f₀ = fx` and `f_t = dfdt`;
+/// `false` (and `out` untouched) when `e^{hJ}` overflowed.
+fn linear_flow<D: Dim>(
+    fx: &OVector<f64, D>,
+    dfdt: &OVector<f64, D>,
+    hj: &DMatrix<f64>,
+    h: f64,
+    x: &OVector<f64, D>,
+    out: &mut OVector<f64, D>,
+) -> bool
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let n = x.len();
+    let mut wcols = DMatrix::zeros(n, 2);
+    for i in 0..n {
+        wcols[(i, 0)] = h * fx[i];
+        wcols[(i, 1)] = h * h * dfdt[i];
+    }
+    let Ok((_, step)) = phi_combination(hj, &wcols) else {
+        return false;
+    };
+    for i in 0..n {
+        out[i] = x[i] + step[i];
+    }
+    true
 }
 
 impl<D: Dim> Method<D> for ExponentialEuler
@@ -203,21 +223,13 @@ where
         s.linearise(f, t, x)?;
         let n = x.len();
         let hj = s.h_jac(h);
-        let mut wcols = DMatrix::zeros(n, 2);
-        for i in 0..n {
-            wcols[(i, 0)] = h * s.fx[i];
-            wcols[(i, 1)] = h * h * s.dfdt[i];
-        }
         s.f_new_valid = false;
         s.xm_at = None;
-        let Ok((_, step)) = phi_combination(&hj, &wcols) else {
+        if !linear_flow(&s.fx, &s.dfdt, &hj, h, x, x_new) {
             // e^{hJ} overflowed: the solution blows up over this step; the driver
             // reports the non-finite state
             x_new.fill(f64::NAN);
             return Ok(Outcome::Done { err: f64::NAN });
-        };
-        for i in 0..n {
-            x_new[i] = x[i] + step[i];
         }
         s.t_new = t + h;
         s.x_new.copy_from(x_new);

@@ -283,6 +283,34 @@ fn output_times_between_long_steps_meet_the_tolerance() {
         );
         assert!(worst < 1e-7 && between < 1e-7, "{name}: {worst:e}, {between:e}");
     }
+    // loose tolerances give loose answers between the steps, never wrong ones: within
+    // ten times rtol (relative to the largest component) at 1e-1 … 1e-3
+    for rtol in [1e-1, 1e-2, 1e-3] {
+        let o = Options::default()
+            .rtol(rtol)
+            .atol(rtol * 1e-2)
+            .save(Save::At(times.clone()))
+            .dense(true);
+        for (name, sol) in [
+            ("exponential-euler", p.solve(ExponentialEuler, &o)),
+            ("exact", p.solve(Exact::new(lti.flow()), &o)),
+        ] {
+            let sol = sol.unwrap();
+            let worst = sol.t.iter().zip(&sol.x).map(|(&t, x)| tol(x, t)).fold(0.0, f64::max);
+            let between = (0..40)
+                .map(|k| (k as f64 + 0.5) * 0.025)
+                .map(|t| tol(&sol.at(t).unwrap(), t))
+                .fold(0.0, f64::max);
+            println!(
+                "rtol {rtol:e}, {name}: {} steps, worst relative error {worst:e}, between {between:e}",
+                sol.stats.accepted
+            );
+            assert!(
+                worst < 10.0 * rtol && between < 10.0 * rtol,
+                "rtol {rtol:e}, {name}: {worst:e}, {between:e}"
+            );
+        }
+    }
 }
 
 /// An exact flow's one long step around a turn: the unicycle at v = 1, ω = π for 2 s

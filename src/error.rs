@@ -198,6 +198,31 @@ pub enum Error {
         /// Time at which it was evaluated.
         t: f64,
     },
+    /// An event's reset map returned a state of the wrong length or with a NaN or ±∞
+    /// component, or held inputs that are not finite.
+    #[error("the reset of event {index} at t = {}: {reason}", Brief(*.t))]
+    EventReset {
+        /// Index of the event.
+        index: usize,
+        /// Time of the occurrence.
+        t: f64,
+        /// What was wrong with what it returned.
+        reason: String,
+    },
+    /// Resetting events accumulate: `count` occurrences within `window` of time (a
+    /// Zeno execution, such as a ball bouncing with restitution below 1 whose bounces
+    /// accumulate at a finite time), or the steps between them shrank below what `t`
+    /// resolves. Set the limit with [`Options::zeno`](crate::Options::zeno); stop the
+    /// model yourself (a terminal event on a small velocity) to go past that time.
+    #[error("Zeno behaviour: {count} resetting events within {} of time up to t = {}; stop or change the model there (Options::zeno sets the limit)", Brief(*.window), Brief(*.t))]
+    Zeno {
+        /// Time of the last occurrence.
+        t: f64,
+        /// Occurrences counted.
+        count: usize,
+        /// The time they fell within.
+        window: f64,
+    },
     /// The root finder could not locate an event inside a step.
     #[error("event {index} could not be located between t = {} and t = {}: {reason}", Brief(*.t0), Brief(*.t1))]
     EventLocation {

@@ -2,13 +2,14 @@
 //! DOPRI5's stiffness test, and event zeros.
 
 use super::Integrator;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::methods::{Method, Stepper};
 use crate::model::System;
-use crate::problem::events::locate;
+use crate::problem::Problem;
+use crate::problem::events::{ResetFn, locate};
 use crate::problem::solution::{EventHit, Stiffness, horner};
 use nalgebra::allocator::Allocator;
-use nalgebra::{DefaultAllocator, Dim};
+use nalgebra::{DefaultAllocator, Dim, OVector};
 
 impl<'p, D: Dim, S: System<D>, M: Method<D>> Integrator<'p, '_, D, S, M>
 where
@@ -72,43 +73,200 @@ where
     }
 
     /// Locate event zeros in the step just taken (dense output is on whenever there are
-    /// events); `true` if a terminal one cut it short (then `t_new` and `x_new` are moved
-    /// to the event).
-    pub(super) fn check_events(&mut self, h: f64, t_new: &mut f64) -> Result<bool> {
-        let events = &self.problem.events;
+    /// events) and act on them in time order. A terminal one (its n-th occurrence) cuts
+    /// the step short at the zero: [`EventEnd::Stopped`]; a resetting one cuts it there
+    /// and puts the reset state in `x_new` (the state before it in `output.jump`):
+    /// [`EventEnd::Reset`]. Either moves `t_new` to the zero; zeros after it in the same
+    /// step are dropped (the solution they belonged to has changed or ended).
+    pub(super) fn check_events(&mut self, h: f64, t_new: &mut f64) -> Result<EventEnd> {
+        let problem: &'p Problem<'_, D, S> = self.problem;
+        let events = &problem.events;
         if events.is_empty() {
-            return Ok(false);
+            return Ok(EventEnd::Passed);
         }
         let mut found: Vec<(f64, usize)> = Vec::new();
         for (i, ev) in events.iter().enumerate() {
             let g1 = (ev.g)(*t_new, &self.x_new);
             if g1.is_nan() {
-                return Err(crate::Error::EventNaN { index: i, t: *t_new });
+                return Err(Error::EventNaN { index: i, t: *t_new });
             }
-            if ev.crosses(self.events.g_prev[i], g1) {
-                let te = if g1 == 0.0 {
+            let g0 = self.events.g_prev[i];
+            if ev.crosses(g0, g1) {
+                let mut te = if g1 == 0.0 {
                     *t_new
                 } else {
                     locate(ev, i, &self.output.dense, self.t, h, *t_new)?
                 };
+                if ev.reset.is_some() {
+                    te = self.before_crossing(i, g0, te, h)?;
+                }
                 found.push((te, i));
             }
             self.events.g_prev[i] = g1;
         }
+        // stable: simultaneous zeros in the order the events were given
         found.sort_by(|a, b| (self.dir * a.0).total_cmp(&(self.dir * b.0)));
         for (te, i) in found {
             let x = horner(&self.output.dense, (te - self.t) / h);
+            let ev = &events[i];
+            self.events.counts[i] += 1;
+            let stop = ev.stop_at.is_some_and(|n| self.events.counts[i] >= n);
+            let reset = match &ev.reset {
+                Some(r) if !stop => Some(self.apply_reset(i, r, te, &x)?),
+                _ => None,
+            };
             self.events.hits.push(EventHit {
                 index: i,
                 t: te,
                 x: x.clone(),
+                x_after: reset.clone(),
             });
-            if events[i].terminal {
+            if stop {
                 *t_new = te;
                 self.x_new = x;
-                return Ok(true);
+                return Ok(EventEnd::Stopped);
+            }
+            if let Some(xa) = reset {
+                *t_new = te;
+                self.x_new = xa;
+                self.output.jump = Some(x);
+                // every event's sign now, at the reset state
+                for (j, e) in events.iter().enumerate() {
+                    let g = (e.g)(te, &self.x_new);
+                    if g.is_nan() {
+                        return Err(Error::EventNaN { index: j, t: te });
+                    }
+                    self.events.g_prev[j] = g;
+                }
+                self.check_zeno(te)?;
+                return Ok(EventEnd::Reset);
             }
         }
-        Ok(false)
+        Ok(EventEnd::Passed)
     }
+
+    /// The reset of event `index` at `(te, x)`: the new state, checked, and the held
+    /// inputs as the map left them.
+    fn apply_reset(
+        &mut self,
+        index: usize,
+        r: &ResetFn<'_, D>,
+        te: f64,
+        x: &OVector<f64, D>,
+    ) -> Result<OVector<f64, D>> {
+        let mut u = self.f.u.to_vec();
+        let xa = r(te, x, &mut u);
+        let fail = |reason: String| Error::EventReset { index, t: te, reason };
+        if xa.len() != x.len() {
+            return Err(fail(format!(
+                "returned {} components for a state of {}",
+                xa.len(),
+                x.len()
+            )));
+        }
+        if let Some(k) = xa.iter().position(|v| !v.is_finite()) {
+            return Err(fail(format!("component {k} of the new state is {}", xa[k])));
+        }
+        if let Some(k) = u.iter().position(|v| !v.is_finite()) {
+            return Err(fail(format!("held input {k} set to {}", u[k])));
+        }
+        if u[..] != self.f.u[..] {
+            self.f.hold(&u);
+        }
+        Ok(xa)
+    }
+
+    /// A zero `te` of event `index` (whose value was `g0` at the step start), moved
+    /// to the side where `g` has not crossed yet: a few ulps back when the root finder
+    /// returned a point just past it, by bisection on `[t, te]` otherwise. A reset there
+    /// starts from a state from which `g` can cross again (a bounce from `x = +10⁻¹⁷`,
+    /// not from `−10⁻¹⁷`, whose next descent would never cross zero).
+    fn before_crossing(&self, index: usize, g0: f64, te: f64, h: f64) -> Result<f64> {
+        let ev = &self.problem.events[index];
+        let crossed = |t: f64| -> Result<bool> {
+            let g = (ev.g)(t, &horner(&self.output.dense, (t - self.t) / h));
+            if g.is_nan() {
+                return Err(Error::EventNaN { index, t });
+            }
+            Ok(ev.crosses(g0, g))
+        };
+        let back = |t: f64| if self.dir > 0.0 { t.next_down() } else { t.next_up() };
+        let mut t = te;
+        for _ in 0..8 {
+            if !crossed(t)? || t == self.t {
+                return Ok(t);
+            }
+            t = back(t);
+        }
+        // bisection: `lo` not crossed (the step start), `hi` crossed
+        let (mut lo, mut hi) = (self.t, t);
+        for _ in 0..80 {
+            let mid = 0.5 * (lo + hi);
+            if mid == lo || mid == hi {
+                break;
+            }
+            if crossed(mid)? {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        Ok(lo)
+    }
+
+    /// After a reset at `te`: [`Error::Zeno`] when the last `ZenoLimit::count` resets
+    /// fall within the window.
+    fn check_zeno(&mut self, te: f64) -> Result<()> {
+        let limit = self.events.zeno;
+        let window = self.zeno_window(te);
+        let r = &mut self.events.resets;
+        r.push_back(te);
+        if r.len() > limit.count {
+            r.pop_front();
+        }
+        match r.front() {
+            Some(&first) if r.len() == limit.count && (te - first).abs() <= window => Err(Error::Zeno {
+                t: te,
+                count: limit.count,
+                window,
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// `ZenoLimit::window` in time at `t`.
+    fn zeno_window(&self, t: f64) -> f64 {
+        let (t0, t_end) = (self.problem.t0, self.problem.t_end);
+        let span = if t_end.is_finite() {
+            (t_end - t0).abs()
+        } else {
+            (t - t0).abs().max(1.0)
+        };
+        self.events.zeno.window * span
+    }
+
+    /// The step size underflowed: right after a run of at least three resets (the next
+    /// occurrence is closer than `t` resolves) that is a Zeno execution.
+    pub(super) fn zeno_underflow(&self) -> Option<Error> {
+        let r = &self.events.resets;
+        match (r.front(), r.back()) {
+            (Some(&first), Some(&last)) if r.len() >= 3 && last == self.t => Some(Error::Zeno {
+                t: last,
+                count: r.len(),
+                window: (last - first).abs(),
+            }),
+            _ => None,
+        }
+    }
+}
+
+/// What the events of a step did to it ([`Integrator::check_events`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum EventEnd {
+    /// Nothing: every zero in it was recorded and passed.
+    Passed,
+    /// A terminal event ended the run.
+    Stopped,
+    /// A reset replaced the state at the step's (new) end.
+    Reset,
 }

@@ -4,6 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::problem::Problem;
+use crate::problem::options::ZenoLimit;
 use crate::problem::solution::EventHit;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -16,6 +17,11 @@ where
     /// `g_i(t, x)` at the last accepted state.
     pub(super) g_prev: Vec<f64>,
     pub(super) hits: Vec<EventHit<D>>,
+    /// Occurrences of each event so far (for `terminal_after`).
+    pub(super) counts: Vec<u64>,
+    /// Times of the latest resets, at most `ZenoLimit::count` of them.
+    pub(super) resets: std::collections::VecDeque<f64>,
+    pub(super) zeno: ZenoLimit,
 }
 
 impl<D: Dim> EventWatch<D>
@@ -23,7 +29,7 @@ where
     DefaultAllocator: Allocator<D>,
 {
     /// The events' values at `(t0, x0)`; a NaN one is [`Error::EventNaN`].
-    pub(super) fn new<S>(problem: &Problem<'_, D, S>, t0: f64, x0: &OVector<f64, D>) -> Result<Self> {
+    pub(super) fn new<S>(problem: &Problem<'_, D, S>, zeno: ZenoLimit, t0: f64, x0: &OVector<f64, D>) -> Result<Self> {
         let mut g_prev = Vec::with_capacity(problem.events.len());
         for (index, e) in problem.events.iter().enumerate() {
             let g = (e.g)(t0, x0);
@@ -33,8 +39,11 @@ where
             g_prev.push(g);
         }
         Ok(EventWatch {
+            counts: vec![0; g_prev.len()],
             g_prev,
             hits: Vec::new(),
+            resets: std::collections::VecDeque::new(),
+            zeno,
         })
     }
 }

@@ -18,6 +18,7 @@ use crate::model::{Eval, System};
 use crate::problem::Problem;
 use crate::problem::options::{Options, StepSize};
 use crate::problem::solution::{DenseSegment, Solution, Stiffness, Switch};
+use checks::EventEnd;
 use event_watch::EventWatch;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
@@ -77,6 +78,10 @@ struct Facts {
     crossing_test: bool,
     /// [`Method::never_retries`].
     never_retries: bool,
+    /// The order the first step is sized for (the error estimate's, plus one).
+    iord: u32,
+    /// [`Method::error_scale`].
+    error_scale: f64,
 }
 
 impl<'p, 'a, D: Dim, S: System<D>, M: Method<D>> Integrator<'p, 'a, D, S, M>
@@ -137,6 +142,7 @@ where
                 ));
             }
         };
+        let iord = error_order.unwrap_or(1) + 1;
         let mut h = f64::NAN;
         if adaptive {
             h = match opts.h0 {
@@ -150,18 +156,11 @@ where
                             f0
                         }
                     };
-                    let iord = error_order.unwrap_or(1) + 1;
-                    let mut probe = x0.clone();
-                    let mut f1 = x0.clone();
-                    let h = initial_step(&w, x0, &f0, iord, opts.h_max, dir, &mut probe, |dt, y| {
-                        f.rhs(t0 + dt, y, &mut f1)?;
-                        Ok(f1.clone())
-                    })?;
-                    h * error_scale.max(1.0).powf(-1.0 / iord as f64)
+                    first_step(&mut f, &w, t0, x0, &f0, iord, error_scale, opts.h_max, dir)?
                 }
             };
         }
-        let events = EventWatch::new(problem, t0, x0)?;
+        let events = EventWatch::new(problem, opts.zeno, t0, x0)?;
         Ok(Integrator {
             problem,
             f,
@@ -170,6 +169,8 @@ where
                 name: method_name,
                 crossing_test,
                 never_retries,
+                iord,
+                error_scale,
             },
             t: t0,
             tau: 0.0,
@@ -504,7 +505,9 @@ where
         }
         match self.control.last_failure {
             Some(why @ Failure::NonFinite { .. }) if failures > 0 => self.failure_error(why, h),
-            _ => Error::StepSizeUnderflow { t: self.t, h },
+            _ => self
+                .zeno_underflow()
+                .unwrap_or(Error::StepSizeUnderflow { t: self.t, h }),
         }
     }
 
@@ -692,11 +695,11 @@ where
         if self.control.adaptive {
             self.check_stiffness(h, t_new);
         }
-        let mut stopped = false;
+        let mut end = EventEnd::Passed;
         if self.output.keep_dense {
             self.stepper
                 .dense(&mut self.f, self.t, h, &self.x, &self.x_new, &mut self.output.dense)?;
-            stopped = self.check_events(h, &mut t_new)?;
+            end = self.check_events(h, &mut t_new)?;
         }
         self.output.last_step = (self.t, h, t_new);
         self.stepper.accept();
@@ -705,10 +708,19 @@ where
         }
         std::mem::swap(&mut self.x, &mut self.x_new);
         self.t = t_new;
-        self.tau = if stopped { t_new - self.problem.t0 } else { tau_new };
-        if stopped {
-            self.done = true;
-            return Ok(());
+        // a step cut short at an event ends at the event's time, measured from t0
+        self.tau = if end == EventEnd::Passed {
+            tau_new
+        } else {
+            t_new - self.problem.t0
+        };
+        match end {
+            EventEnd::Passed => {}
+            EventEnd::Stopped => {
+                self.done = true;
+                return Ok(());
+            }
+            EventEnd::Reset => return self.restart(),
         }
         if self.control.adaptive {
             self.propose(h, err, land.is_some());
@@ -722,6 +734,43 @@ where
         self.arrive(land);
         Ok(())
     }
+    /// After a reset of the state: the method starts afresh from `(t, x)` (its carried
+    /// stages, history and factorisations dropped), and an adaptive run chooses its
+    /// step again as at the start (Hairer's algorithm, the controller's memory cleared).
+    /// A fixed-step run goes on to the next point of its grid.
+    #[cold]
+    fn restart(&mut self) -> Result<()> {
+        self.stepper.reset();
+        if self.control.adaptive {
+            let mut f0 = self.x.clone();
+            self.f.rhs(self.t, &self.x, &mut f0)?;
+            let (iord, scale) = (self.facts.iord, self.facts.error_scale);
+            let h_max = self.control.h_max;
+            self.control.h = first_step(
+                &mut self.f,
+                &self.control.w,
+                self.t,
+                &self.x,
+                &f0,
+                iord,
+                scale,
+                h_max,
+                self.dir,
+            )?;
+            self.control.controller.restart();
+            self.control.last_rejected = false;
+        } else {
+            self.stops.sub_h = None;
+        }
+        Ok(())
+    }
+
+    /// Every event occurrence so far, in time order (what
+    /// [`Solution::events`](crate::Solution::events) holds at the end of a solve).
+    pub fn events(&self) -> &[crate::problem::solution::EventHit<D>] {
+        &self.events.hits
+    }
+
     /// Run to the end and collect every step.
     pub fn solve(mut self) -> Result<Solution<D>> {
         if self.problem.t_end.is_infinite() {
@@ -760,7 +809,14 @@ where
         while self.step()?.is_some() {
             let (t0, h, t1) = self.output.last_step;
             let seg = self.output.keep_dense.then_some((t0, h, self.output.dense.as_slice()));
-            out.step(self.t, &self.x, seg);
+            match self.output.jump.take() {
+                // a reset: the state before it ends the step, the one after it starts the next
+                Some(before) => {
+                    out.step(self.t, &before, seg);
+                    out.jump(self.t, &self.x);
+                }
+                None => out.step(self.t, &self.x, seg),
+            }
             if self.output.store_dense {
                 dense.push(DenseSegment {
                     t0,
@@ -904,4 +960,31 @@ where
 #[inline(never)]
 fn any_non_finite(x: &[f64]) -> bool {
     x.iter().any(|v| !v.is_finite())
+}
+
+/// Hairer's first step from `(t0, x0)` with `f0 = f(t0, x0)` for an estimate of order
+/// `iord − 1`, shortened by `scale^(−1/iord)` for a method that holds its error `scale`
+/// times tighter than the tolerance ([`Method::error_scale`]).
+#[allow(clippy::too_many_arguments)]
+fn first_step<D: Dim, S: System<D>>(
+    f: &mut Eval<'_, D, S>,
+    w: &crate::methods::step_size::Weights<D>,
+    t0: f64,
+    x0: &OVector<f64, D>,
+    f0: &OVector<f64, D>,
+    iord: u32,
+    scale: f64,
+    h_max: f64,
+    dir: f64,
+) -> Result<f64>
+where
+    DefaultAllocator: Allocator<D>,
+{
+    let mut probe = x0.clone();
+    let mut f1 = x0.clone();
+    let h = initial_step(w, x0, f0, iord, h_max, dir, &mut probe, |dt, y| {
+        f.rhs(t0 + dt, y, &mut f1)?;
+        Ok(f1.clone())
+    })?;
+    Ok(h * scale.max(1.0).powf(-1.0 / iord as f64))
 }

@@ -27,6 +27,9 @@ where
     /// `(t, h, t + h)` of the last accepted step.
     pub(super) last_step: (f64, f64, f64),
     pub(super) switches: Vec<Switch>,
+    /// The state just before a reset that ended the last step (its dense polynomial ends
+    /// there; the integrator's state is the one after).
+    pub(super) jump: Option<OVector<f64, D>>,
 }
 
 impl<D: Dim> Output<D>
@@ -83,6 +86,7 @@ where
             },
             last_step: (t0, 0.0, t0),
             switches: Vec::new(),
+            jump: None,
         })
     }
 }

@@ -276,6 +276,19 @@ where
         }
     }
 
+    /// A reset at the end of the step just passed to [`step`](Self::step): the state
+    /// after it, at the same time, kept wherever every step (or every k-th) is, and held
+    /// as the latest state otherwise.
+    pub(crate) fn jump(&mut self, t: f64, x_after: &OVector<f64, D>) {
+        match self.mode {
+            Mode::Steps | Mode::Every(_) => {
+                self.push(t, x_after);
+                self.pending = None;
+            }
+            Mode::End | Mode::At => self.hold(t, x_after),
+        }
+    }
+
     /// Keep the latest step end for [`finish`](Self::finish), reusing the buffer.
     fn hold(&mut self, t1: f64, x1: &OVector<f64, D>) {
         match &mut self.pending {

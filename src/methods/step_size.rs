@@ -230,6 +230,11 @@ impl Controller {
             ln_err_old: LN_ERR_MIN,
         }
     }
+    /// Forget the last accepted error, as at the start of a run (after a reset of the
+    /// state, the error history says nothing of the steps ahead).
+    pub fn restart(&mut self) {
+        self.ln_err_old = LN_ERR_MIN;
+    }
 
     /// Keep `h` when the proposed factor lies in `[lo, hi]`.
     pub fn with_hold(mut self, lo: f64, hi: f64) -> Self {

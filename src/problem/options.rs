@@ -65,6 +65,38 @@ pub struct Options {
     /// auxiliary quantities such as sensitivities ([`crate::sensitivity`]) or quadratures.
     /// `None` (the default): every component.
     pub error_components: Option<usize>,
+    /// When resetting events count as a Zeno execution ([`Error::Zeno`]).
+    pub zeno: ZenoLimit,
+}
+
+/// Resetting events that accumulate end the run with [`Error::Zeno`]: `count`
+/// occurrences (of any resetting events) within `window·|t_end − t0|` of time
+/// (`window·max(1, |t − t0|)` on an open-ended span). Default: 10 within 10⁻⁹ of the
+/// span. A step that cannot advance right after such a run of resets (the next one is
+/// closer than `t` resolves) is the same error.
+///
+/// ```
+/// use reckon::{Options, problem::options::ZenoLimit};
+/// let o = Options::default().zeno(50, 1e-6);
+/// assert_eq!(o.zeno, ZenoLimit { count: 50, window: 1e-6 });
+/// assert!(o.validate().is_ok());
+/// assert!(Options::default().zeno(0, 1e-6).validate().is_err());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ZenoLimit {
+    /// Occurrences (at least 2).
+    pub count: usize,
+    /// Relative width of the window (finite, non-negative).
+    pub window: f64,
+}
+
+impl Default for ZenoLimit {
+    fn default() -> Self {
+        ZenoLimit {
+            count: 10,
+            window: 1e-9,
+        }
+    }
 }
 
 /// What a [`Solution`](crate::Solution) keeps: the states at `t0` and at every accepted
@@ -117,6 +149,7 @@ impl Default for Options {
             save: Save::Steps,
             linear_solver: LinearSolver::Auto,
             error_components: None,
+            zeno: ZenoLimit::default(),
         }
     }
 }
@@ -208,6 +241,11 @@ impl Options {
         self.error_components = Some(m);
         self
     }
+    /// Set when resetting events count as Zeno ([`ZenoLimit`]).
+    pub fn zeno(mut self, count: usize, window: f64) -> Self {
+        self.zeno = ZenoLimit { count, window };
+        self
+    }
     /// Choose the implicit methods' linear algebra ([`LinearSolver`]).
     pub fn linear_solver(mut self, l: LinearSolver) -> Self {
         self.linear_solver = l;
@@ -285,6 +323,16 @@ impl Options {
                 }
             }
             _ => {}
+        }
+        if self.zeno.count < 2 || !(self.zeno.window.is_finite() && self.zeno.window >= 0.0) {
+            return Err(Error::invalid(
+                "zeno",
+                format!(
+                    "needs a count of at least 2 and a finite non-negative window, got ({}, {})",
+                    self.zeno.count,
+                    crate::error::Brief(self.zeno.window)
+                ),
+            ));
         }
         if let Some(b) = self.breakpoints.iter().find(|b| !b.is_finite()) {
             return Err(Error::invalid(

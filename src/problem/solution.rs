@@ -79,8 +79,11 @@ where
     pub index: usize,
     /// Time of the zero.
     pub t: f64,
-    /// State at that time (from dense output).
+    /// State at that time (from dense output); before the reset for a resetting event.
     pub x: OVector<f64, D>,
+    /// The state the event's reset map put in its place (`None` for an event without
+    /// a reset, and at the occurrence that stopped the run).
+    pub x_after: Option<OVector<f64, D>>,
 }
 
 /// One step's dense polynomial `x(t₀ + θh) = Σ_j c_j θʲ`, `θ ∈ [0, 1]`.
@@ -129,13 +132,14 @@ pub struct Solution<D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
-    /// Times, starting at `t0`, ending at `t_end` (or a terminal event).
+    /// Times, starting at `t0`, ending at `t_end` (or a terminal event). A reset
+    /// appears twice: the state before it, then the state after it, at the same time.
     pub t: Vec<f64>,
     /// States at those times.
     pub x: Vec<OVector<f64, D>>,
     /// Counters.
     pub stats: Stats,
-    /// Event zeros in time order.
+    /// Event zeros in time order (simultaneous ones in the order the events were given).
     pub events: Vec<EventHit<D>>,
     /// Set when the stiffness test fired (the run still completes).
     pub stiffness: Option<Stiffness>,

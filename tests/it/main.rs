@@ -20,6 +20,7 @@ mod fail_safe;
 mod fast_path;
 mod golden;
 mod handwritten;
+mod hybrid;
 mod imu;
 mod jacobian;
 mod kalman;

@@ -22,6 +22,7 @@ import numpy as np
 from . import _errors
 from ._errors import *  # noqa: F401,F403  (the exception hierarchy under reckon.Error)
 from ._errors import __all__ as _error_names
+from ._ensemble import EncoderEnsemble, Statistics, _statistics_from_json  # noqa: F401
 from ._reckon import DenseOutput, Model, Symbol
 from ._reckon import solve as _solve
 from ._reckon import solve_traced as _solve_traced
@@ -35,7 +36,8 @@ _FUNCTIONS = (
 )
 
 __all__ = [
-    "solve_ivp", "OdeResult", "DenseOutput", "Model", "Symbol", "METHODS", *_FUNCTIONS,
+    "solve_ivp", "OdeResult", "DenseOutput", "Model", "Symbol", "METHODS", "EncoderEnsemble",
+    "Statistics", *_FUNCTIONS,
     "arctan2", "hypot", *_error_names,
 ]
 

@@ -12,6 +12,7 @@
 //! calling Python, so the library stops at once with a typed error, and [`solve`]
 //! raises the kept exception instead of that error.
 
+mod ensemble;
 mod errors;
 mod traced;
 
@@ -837,6 +838,9 @@ fn _reckon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(solve, m)?)?;
     m.add_function(wrap_pyfunction!(solve_traced, m)?)?;
     m.add_function(wrap_pyfunction!(_rust_reference, m)?)?;
+    m.add_function(wrap_pyfunction!(ensemble::encoder_plan, m)?)?;
+    m.add_function(wrap_pyfunction!(ensemble::encoder_run, m)?)?;
+    m.add_class::<ensemble::Statistics>()?;
     m.add_class::<DenseOutput>()?;
     m.add_class::<traced::Model>()?;
     m.add_class::<traced::Symbol>()?;

@@ -223,6 +223,16 @@ pub enum Error {
         /// The time they fell within.
         window: f64,
     },
+    /// A DAE's initial state could not be made consistent: Newton on the algebraic
+    /// equations (with the differential components held) failed, or their Jacobian is
+    /// singular (the problem is not of index 1 there).
+    #[error("inconsistent initial values at t = {}: {reason}", Brief(*.t))]
+    Inconsistent {
+        /// The initial time.
+        t: f64,
+        /// Why no consistent state was found.
+        reason: String,
+    },
     /// The root finder could not locate an event inside a step.
     #[error("event {index} could not be located between t = {} and t = {}: {reason}", Brief(*.t0), Brief(*.t1))]
     EventLocation {

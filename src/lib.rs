@@ -32,6 +32,7 @@ pub use num_dual;
 pub use problem::Problem;
 pub use problem::controls::Controls;
 pub use problem::events::{Direction, Event};
+pub use problem::mass::Mass;
 pub use problem::options::{Options, Save, StepSize};
 pub use problem::solution::{Solution, Switch, SwitchReason};
 

@@ -111,8 +111,15 @@ where
             let ev = &events[i];
             self.events.counts[i] += 1;
             let stop = ev.stop_at.is_some_and(|n| self.events.counts[i] >= n);
+            // the slope before a reset (with the inputs before it), for `passed_at_reset`
+            let mut f_before = None;
             let reset = match &ev.reset {
-                Some(r) if !stop => Some(self.apply_reset(i, r, te, &x)?),
+                Some(r) if !stop => {
+                    let mut fx = x.clone();
+                    self.f.rhs(te, &x, &mut fx)?;
+                    f_before = Some(fx);
+                    Some(self.apply_reset(i, r, te, &x)?)
+                }
                 _ => None,
             };
             self.events.hits.push(EventHit {
@@ -126,10 +133,9 @@ where
                 self.x_new = x;
                 return Ok(EventEnd::Stopped);
             }
-            if let Some(xa) = reset {
+            if let (Some(xa), Some(f_before)) = (reset, f_before) {
                 *t_new = te;
                 self.x_new = xa;
-                self.output.jump = Some(x);
                 // every event's sign now, at the reset state
                 for (j, e) in events.iter().enumerate() {
                     let g = (e.g)(te, &self.x_new);
@@ -138,11 +144,61 @@ where
                     }
                     self.events.g_prev[j] = g;
                 }
+                // the events recorded at this time, the reset's own included
+                let at_te: Vec<usize> = self
+                    .events
+                    .hits
+                    .iter()
+                    .rev()
+                    .take_while(|h| h.t == te)
+                    .map(|h| h.index)
+                    .collect();
+                self.passed_at_reset(te, &at_te, &x, &f_before)?;
+                self.output.jump = Some(x);
                 self.check_zeno(te)?;
                 return Ok(EventEnd::Reset);
             }
         }
         Ok(EventEnd::Passed)
+    }
+
+    /// After a reset at `te`: an event just recorded there whose zero the motion crossed
+    /// on both sides of the reset counts as passed, so that one crossing is one
+    /// occurrence. The reset placed the state a few ulps before the zero; when the flow
+    /// before the reset (from `x⁻` along `f⁻`) and after it (from `x⁺` along `f(te, x⁺)`)
+    /// both carry `g` through it within 64 ulps of `t` (one Euler probe each), the reset
+    /// left the crossing motion alone (a counter, a change of inputs that does not turn
+    /// it): its next step must not find the same crossing again. A bounce turns the motion
+    /// away, and a reset that turns it into the surface starts a new crossing (an event
+    /// again at once, Zeno if it repeats): neither is touched. One `f` call per reset
+    /// here, one before it.
+    fn passed_at_reset(
+        &mut self,
+        te: f64,
+        recorded: &[usize],
+        x_before: &OVector<f64, D>,
+        f_before: &OVector<f64, D>,
+    ) -> Result<()> {
+        if recorded.is_empty() {
+            return Ok(());
+        }
+        let events = &self.problem.events;
+        let mut fx = self.x_new.clone();
+        self.f.rhs(te, &self.x_new, &mut fx)?;
+        let dt = self.dir * 64.0 * f64::EPSILON * te.abs().max(self.t.abs()).max(f64::MIN_POSITIVE);
+        let mut after = self.x_new.clone();
+        after.axpy(dt, &fx, 1.0);
+        let mut before = x_before.clone();
+        before.axpy(dt, f_before, 1.0);
+        for &j in recorded {
+            let g = &events[j].g;
+            let through_before = events[j].crosses(g(te, x_before), g(te + dt, &before));
+            let g_after = g(te + dt, &after);
+            if through_before && events[j].crosses(self.events.g_prev[j], g_after) {
+                self.events.g_prev[j] = g_after;
+            }
+        }
+        Ok(())
     }
 
     /// The reset of event `index` at `(te, x)`: the new state, checked, and the held

@@ -65,6 +65,8 @@ where
     output: Output<D>,
     /// Event functions' last values and the occurrences found.
     events: EventWatch<D>,
+    /// A DAE's initial state put on its algebraic equations, when it was not.
+    x0_corrected: Option<OVector<f64, D>>,
     /// DOPRI5's stiffness test.
     stiff: StiffnessWatch,
     done: bool,
@@ -118,7 +120,22 @@ where
         let mut f = Eval::new(&problem.system, u);
         f.sparse.choice = opts.linear_solver;
         let (method_name, error_order) = (method.name(), method.error_order());
-        let (crossing_test, never_retries) = (method.crossing_test(), method.never_retries());
+        // the crossing test reads f_i as x_i': not so with a mass matrix
+        let crossing_test = method.crossing_test() && problem.mass.is_none();
+        let never_retries = method.never_retries();
+        let mut x0_corrected = None;
+        if let Some(m) = &problem.mass {
+            m.check(x0.len())?;
+            if !method.takes_mass() {
+                return Err(Error::invalid(
+                    "mass",
+                    format!("{method_name} takes no mass matrix (M·x' = f): use Bdf or Rodas5P"),
+                ));
+            }
+            f.mass = Some(m);
+            x0_corrected = method.consistent_start(&mut f, t0, x0, &w)?;
+        }
+        let x0 = x0_corrected.as_ref().unwrap_or(x0);
         let (controller, error_scale) = (method.controller(), method.error_scale(&w));
         let exact = method.order() == u32::MAX;
         let mut stepper = method.stepper(&mut f, t0, x0)?;
@@ -148,7 +165,7 @@ where
             h = match opts.h0 {
                 Some(h0) => h0.min(opts.h_max),
                 None => {
-                    let f0 = match stepper.derivative_at_start() {
+                    let mut f0 = match stepper.derivative_at_start() {
                         Some(f0) => f0.clone(),
                         None => {
                             let mut f0 = x0.clone();
@@ -156,6 +173,7 @@ where
                             f0
                         }
                     };
+                    slope(&f, &mut f0);
                     first_step(&mut f, &w, t0, x0, &f0, iord, error_scale, opts.h_max, dir)?
                 }
             };
@@ -181,6 +199,7 @@ where
             control: StepControl::new(w, controller, adaptive, h, opts),
             output,
             events,
+            x0_corrected,
             stiff: StiffnessWatch::new(opts),
             done: false,
         })
@@ -744,6 +763,7 @@ where
         if self.control.adaptive {
             let mut f0 = self.x.clone();
             self.f.rhs(self.t, &self.x, &mut f0)?;
+            slope(&self.f, &mut f0);
             let (iord, scale) = (self.facts.iord, self.facts.error_scale);
             let h_max = self.control.h_max;
             self.control.h = first_step(
@@ -836,6 +856,7 @@ where
             method: self.facts.name,
             switches: std::mem::take(&mut self.output.switches),
             dense,
+            x0_corrected: self.x0_corrected.take(),
         })
     }
 }
@@ -987,4 +1008,16 @@ where
         Ok(f1.clone())
     })?;
     Ok(h * scale.max(1.0).powf(-1.0 / iord as f64))
+}
+
+/// `f(t, x)` turned into the slope `x' = M⁺·f` for a mass-matrix problem (the first
+/// step's size is set by the slope); unchanged without one.
+fn slope<D: Dim, S: System<D>>(f: &Eval<'_, D, S>, fx: &mut OVector<f64, D>)
+where
+    DefaultAllocator: Allocator<D>,
+{
+    if let Some(m) = f.mass {
+        let v = fx.clone();
+        m.derivative(v.as_slice(), fx.as_mut_slice());
+    }
 }

@@ -356,6 +356,21 @@ where
     fn tightens_loose_tolerances(&self) -> bool {
         true
     }
+    fn takes_mass(&self) -> bool {
+        true
+    }
+    fn consistent_start<S: System<D>>(
+        &self,
+        f: &mut Eval<'_, D, S>,
+        t0: f64,
+        x0: &OVector<f64, D>,
+        w: &Weights<D>,
+    ) -> Result<Option<OVector<f64, D>>> {
+        match f.mass {
+            Some(m) => super::consistent::consistent_start(f, m, t0, x0, w),
+            None => Ok(None),
+        }
+    }
     fn error_scale(&self, w: &Weights<D>) -> f64 {
         1.0 / self.factor(w)
     }
@@ -460,7 +475,11 @@ where
                 s.f0_valid = true;
             }
             s.diffs[0].copy_from(x);
-            s.diffs[1].copy_from(&s.f0);
+            match f.mass {
+                // the slope M⁺·f (zero along M's null space: the algebraic components)
+                Some(m) => m.derivative(s.f0.as_slice(), s.diffs[1].as_mut_slice()),
+                None => s.diffs[1].copy_from(&s.f0),
+            }
             s.diffs[1] *= h;
             for d in s.diffs.iter_mut().skip(2) {
                 d.fill(0.0);

@@ -20,7 +20,10 @@ where
         j: OMatrix<f64, D, D>,
         m: OMatrix<f64, D, D>,
         lu: Option<D::Lu>,
+        /// The problem's mass matrix, dense (`M = a·mass + b·J`); `None`: `a·I + b·J`.
+        mass: Option<OMatrix<f64, D, D>>,
     },
+    /// `J` sparse; a mass matrix, diagonal, is `mass_diag` (`M = a·diag + b·J`).
     Sparse(Box<SparseMatrix>),
     /// `J = [[A, 0], [L, blockdiag(A, …, A)]]` ([`System::jacobian_blocks`]): `M`'s
     /// diagonal blocks are all `a·I + b·A`, factored once (`b_n × b_n`), and
@@ -47,6 +50,8 @@ pub(crate) struct SparseMatrix {
     /// `‖J‖∞` of the current `J` (computed with it: O(nnz)) and the row sums it uses.
     norm: f64,
     rows: Vec<f64>,
+    /// A diagonal mass matrix (`None`: the identity).
+    mass_diag: Option<Vec<f64>>,
 }
 
 impl SparseMatrix {
@@ -67,6 +72,7 @@ impl SparseMatrix {
             rows: vec![0.0; pattern.n()],
             pattern,
             norm: f64::NAN,
+            mass_diag: None,
         })
     }
 }
@@ -77,13 +83,41 @@ where
 {
     /// Storage for states shaped like `x0`, on the path the run chose.
     pub fn new<S: System<D>>(f: &mut Eval<'_, D, S>, x0: &OVector<f64, D>) -> Result<Self> {
+        let mass = f.mass;
         if let Some(p) = f.sparse_pattern(x0.len())? {
-            let s = SparseMatrix::new(p).ok_or_else(|| {
+            let mut s = SparseMatrix::new(p).ok_or_else(|| {
                 crate::Error::invalid("linear_solver", "faer's sparse LU could not analyse the pattern")
             })?;
+            if let Some(m) = mass {
+                let d = m.as_diagonal().ok_or_else(|| {
+                    crate::Error::invalid(
+                        "mass",
+                        "a dense mass matrix takes the dense linear solver: give Mass::diagonal, or LinearSolver::Dense",
+                    )
+                })?;
+                s.mass_diag = Some(d.to_vec());
+            }
             return Ok(IterationMatrix::Sparse(Box::new(s)));
         }
         let (r, _) = x0.shape_generic();
+        if let Some(m) = mass {
+            let mut md = OMatrix::<f64, D, D>::zeros_generic(r, r);
+            match (m.as_diagonal(), m.as_dense()) {
+                (Some(d), _) => {
+                    for (i, &v) in d.iter().enumerate() {
+                        md[(i, i)] = v;
+                    }
+                }
+                (None, Some(dm)) => md.copy_from_slice(dm.as_slice()),
+                (None, None) => unreachable!("a mass is diagonal or dense"),
+            }
+            return Ok(IterationMatrix::Dense {
+                j: OMatrix::<f64, D, D>::zeros_generic(r, r),
+                m: OMatrix::<f64, D, D>::zeros_generic(r, r),
+                lu: None,
+                mass: Some(md),
+            });
+        }
         if let Some(nb) = f.system().jacobian_blocks()
             && nb > 0
             && x0.len().is_multiple_of(nb)
@@ -102,6 +136,7 @@ where
             j: OMatrix::<f64, D, D>::zeros_generic(r, r),
             m: OMatrix::<f64, D, D>::zeros_generic(r, r),
             lu: None,
+            mass: None,
         })
     }
 
@@ -132,11 +167,20 @@ where
     /// Factor `M = a·I + b·J`; `false` when it is singular (or has non-finite pivots).
     pub fn factor(&mut self, a: f64, b: f64) -> bool {
         match self {
-            IterationMatrix::Dense { j, m, lu } => {
+            IterationMatrix::Dense { j, m, lu, mass } => {
                 m.copy_from(j);
                 *m *= b;
-                for i in 0..m.nrows() {
-                    m[(i, i)] += a;
+                match mass {
+                    Some(mm) => {
+                        for (mi, &v) in m.iter_mut().zip(mm.iter()) {
+                            *mi += a * v;
+                        }
+                    }
+                    None => {
+                        for i in 0..m.nrows() {
+                            m[(i, i)] += a;
+                        }
+                    }
                 }
                 *lu = D::Lu::factor(m);
                 lu.is_some()
@@ -156,8 +200,17 @@ where
                 for (k, &v) in s.j.iter().enumerate() {
                     s.m[s.to_m[k]] = b * v;
                 }
-                for &d in &s.diag {
-                    s.m[d] += a;
+                match &s.mass_diag {
+                    Some(md) => {
+                        for (&d, &mi) in s.diag.iter().zip(md) {
+                            s.m[d] += a * mi;
+                        }
+                    }
+                    None => {
+                        for &d in &s.diag {
+                            s.m[d] += a;
+                        }
+                    }
                 }
                 // m has one value per non-zero of the pattern the LU was made for
                 matches!(s.lu.factor(&s.m), Ok(true))

@@ -16,6 +16,7 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 
 pub mod auto;
 pub mod bdf;
+pub(crate) mod consistent;
 mod dense;
 pub mod euler;
 pub mod exact;
@@ -149,6 +150,22 @@ where
     /// spike (OREGO at `rtol` 0.1–3e-2, `examples/tolerance_sweep.rs`).
     fn tightens_loose_tolerances(&self) -> bool {
         false
+    }
+    /// Whether the method solves `M·x' = f(t, x)` with a mass matrix
+    /// ([`Problem::mass`](crate::Problem::mass)): on for `Bdf` and `Rodas5P`.
+    fn takes_mass(&self) -> bool {
+        false
+    }
+    /// For a method that [takes a mass matrix](Self::takes_mass): the initial state made
+    /// consistent with a singular `M` (`None`: `x0` is consistent as given).
+    fn consistent_start<S: System<D>>(
+        &self,
+        _f: &mut Eval<'_, D, S>,
+        _t0: f64,
+        _x0: &OVector<f64, D>,
+        _w: &Weights<D>,
+    ) -> Result<Option<OVector<f64, D>>> {
+        Ok(None)
     }
     /// The stepper for a run from `(t0, x0)`: work space for `x0`'s dimension, and what
     /// the first step needs evaluated (e.g. `f(t0, x0)` for FSAL).

@@ -247,8 +247,13 @@ where
             }
         }
         f.stats.newton_iterations += 1;
-        for i in 0..n {
-            dy[i] = c * fx[i] - psi[i] - d[i];
+        match f.mass {
+            None => {
+                for i in 0..n {
+                    dy[i] = c * fx[i] - psi[i] - d[i];
+                }
+            }
+            Some(m) => m.residual(c, fx.as_slice(), psi.as_slice(), d.as_slice(), dy.as_mut_slice()),
         }
         lu.solve(dy);
         if s != 1.0 {

@@ -5,7 +5,7 @@ use super::iteration::IterationMatrix;
 use super::{Failure, Method, Outcome, Step, Stepper};
 use crate::error::Result;
 use crate::linalg::LuDim;
-use crate::methods::step_size::Controller;
+use crate::methods::step_size::{Controller, Weights};
 use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
@@ -185,6 +185,8 @@ where
     /// `(t, x)` at which `fx`, `dfdt` and `J` were evaluated (reused after a rejection).
     x_at: OVector<f64, D>,
     t_at: f64,
+    /// `Σ_j (C_ij/h)·k_j` of a stage, multiplied by the mass matrix when there is one.
+    cm: OVector<f64, D>,
     /// `J` and the LU of `W = I/(hγ) − J`, dense or sparse as the run chose.
     lin: IterationMatrix<D>,
 }
@@ -237,6 +239,21 @@ where
     fn tightens_loose_tolerances(&self) -> bool {
         true
     }
+    fn takes_mass(&self) -> bool {
+        true
+    }
+    fn consistent_start<S: System<D>>(
+        &self,
+        f: &mut Eval<'_, D, S>,
+        t0: f64,
+        x0: &OVector<f64, D>,
+        w: &Weights<D>,
+    ) -> Result<Option<OVector<f64, D>>> {
+        match f.mass {
+            Some(m) => super::consistent::consistent_start(f, m, t0, x0, w),
+            None => Ok(None),
+        }
+    }
     fn crossing_test(&self) -> bool {
         true
     }
@@ -265,6 +282,7 @@ where
             dfdt: x0.clone(),
             x_at: x0.clone(),
             t_at: f64::NAN,
+            cm: x0.clone(),
             lin: IterationMatrix::new(f, x0)?,
         })
     }
@@ -302,14 +320,21 @@ where
             w.x_at.copy_from(x);
             w.t_at = t;
         }
-        // W = I/(hγ) − J
+        // W = M/(hγ) − J (M = I without a mass matrix)
         let inv_hg = 1.0 / (h * GAMMA);
         f.stats.lu_decompositions += 1;
         if !w.lin.factor(inv_hg, -1.0) {
             return Ok(Outcome::Retry(Failure::Singular));
         }
+        let mass = f.mass;
         let Rodas5PStepper {
-            k, u, fx, dfdt, lin, ..
+            k,
+            u,
+            fx,
+            dfdt,
+            lin,
+            cm,
+            ..
         } = w;
         for s in 0..STAGES {
             let (done, rest) = k.split_at_mut(s);
@@ -325,8 +350,20 @@ where
                     }
                 }
                 f.rhs_unchecked(t + C_T[s] * h, u, ks);
-                for (j, kj) in done.iter().enumerate() {
-                    ks.axpy(C[s][j] / h, kj, 1.0);
+                match mass {
+                    None => {
+                        for (j, kj) in done.iter().enumerate() {
+                            ks.axpy(C[s][j] / h, kj, 1.0);
+                        }
+                    }
+                    // M·Σ (C_ij/h)·k_j
+                    Some(m) => {
+                        cm.fill(0.0);
+                        for (j, kj) in done.iter().enumerate() {
+                            cm.axpy(C[s][j] / h, kj, 1.0);
+                        }
+                        m.mul_into(cm.as_slice(), 1.0, 1.0, ks.as_mut_slice());
+                    }
                 }
             }
             if D_T[s] != 0.0 {

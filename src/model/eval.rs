@@ -55,6 +55,8 @@ where
     pub(crate) fault: Option<Error>,
     /// The linear-algebra choice and the model's sparse Jacobian (`crate::sparse`).
     pub(crate) sparse: crate::jacobian::choice::Slot<'a>,
+    /// The problem's mass matrix (`None`: the identity).
+    pub(crate) mass: Option<&'a crate::problem::mass::Mass>,
     _dim: PhantomData<D>,
 }
 
@@ -71,6 +73,7 @@ where
             stats: Stats::default(),
             fault: None,
             sparse: Default::default(),
+            mass: None,
             _dim: PhantomData,
         }
     }

@@ -3,6 +3,7 @@
 
 pub mod controls;
 pub mod events;
+pub mod mass;
 pub mod options;
 pub mod solution;
 
@@ -46,6 +47,8 @@ where
     /// with [`Integrator::set_inputs`].
     pub held: Option<Vec<f64>>,
     pub(crate) events: Vec<Event<'a, D>>,
+    /// `M` of `M·x' = f(t, x)` (`None`: the identity).
+    pub(crate) mass: Option<mass::Mass>,
 }
 
 impl<'a, D: Dim, S: System<D>> Problem<'a, D, S>
@@ -62,7 +65,15 @@ where
             controls: None,
             held: None,
             events: Vec::new(),
+            mass: None,
         }
+    }
+    /// Solve `M·x' = f(t, x)` with a constant mass matrix `M` ([`Mass`](mass::Mass)),
+    /// possibly singular (an index-1 DAE), with [`Bdf`](crate::methods::Bdf) or
+    /// [`Rodas5P`](crate::methods::Rodas5P); other methods refuse it.
+    pub fn mass(mut self, m: mass::Mass) -> Self {
+        self.mass = Some(m);
+        self
     }
     /// Hold inputs piecewise constant; every control time becomes a breakpoint.
     pub fn controls(mut self, controls: Controls) -> Self {

@@ -148,6 +148,9 @@ where
     /// Every method switch of an auto-switching method, in time order (empty otherwise).
     pub switches: Vec<Switch>,
     pub(crate) dense: Vec<DenseSegment<D>>,
+    /// The initial state the run started from when it differs from the problem's: a
+    /// DAE's algebraic components put on their equations (`Some` only then).
+    pub x0_corrected: Option<OVector<f64, D>>,
 }
 
 impl<D: Dim> Solution<D>

@@ -81,6 +81,7 @@ use num_dual::{Derivative, DualVec64};
 use std::marker::PhantomData;
 
 mod direct;
+mod saltation;
 
 /// The largest local error an accepted step may leave in the sensitivities, relative to
 /// their size, when they are outside the error control (the default): `0.1`. Above it
@@ -612,8 +613,10 @@ where
 /// `method` is any method of [`crate::methods`] (`Rk45`, `Bdf::default()`, …,
 /// inferred at `Dyn`) or `Exact::new(flow)` with a [`DualFlow`].
 ///
-/// Errors: those of the solve, and [`Error::InvalidInput`] for a problem with events (the
-/// event times' own sensitivities are not computed).
+/// Events that reset the state apply the saltation matrix to `S` (see the guide's
+/// events section); recorded events leave it alone. Errors: those of the solve, and
+/// [`Error::InvalidInput`] for a terminal event (the stop time's own sensitivity is not
+/// applied) or a mass matrix.
 ///
 /// ```
 /// use reckon::{methods::Exact, vehicles::unicycle, sensitivity::{self, SensitivityOptions}, Options, Problem};
@@ -635,10 +638,16 @@ where
     M: Augment<D>,
     DefaultAllocator: Allocator<D> + Allocator<D, D> + Allocator<U1, D>,
 {
-    if problem.has_events() {
+    if problem.events.iter().any(|e| e.stop_at.is_some()) {
         return Err(Error::invalid(
             "events",
-            "sensitivities are not computed for a problem with events (the event times depend on x₀ and p)",
+            "sensitivities with a terminal event: the stop time's own sensitivity is not applied (integrate to t_end, or record the event without stopping)",
+        ));
+    }
+    if problem.mass.is_some() {
+        return Err(Error::invalid(
+            "mass",
+            "sensitivities are not computed for a mass-matrix problem (M·x' = f)",
         ));
     }
     let n = problem.x0.len();
@@ -649,7 +658,10 @@ where
             "sensitivities with respect to the parameters of a model without a parameter block",
         ));
     }
-    if let Some(direct) = method.direct(problem, opts, sens) {
+    // the direct schemes know no events; resets take the saltation matrix on the stacked state
+    if !problem.has_events()
+        && let Some(direct) = method.direct(problem, opts, sens)
+    {
         return direct;
     }
     let method = method.augment(n, np)?;
@@ -659,6 +671,9 @@ where
     let mut ap = Problem::<Dyn, Augmented<'_, D, S>>::new(aug, z0, (problem.t0, problem.t_end));
     ap.controls = problem.controls.clone();
     ap.held = problem.held.clone();
+    for ev in &problem.events {
+        ap = ap.event(saltation::on_stacked(ev, &problem.system, n, m));
+    }
     let mut o = opts.clone();
     let widen = |tol: &Tolerance| -> Tolerance {
         match tol {

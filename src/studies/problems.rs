@@ -362,3 +362,119 @@ pub fn brusselator_2d_y0(n: usize) -> nalgebra::DVector<f64> {
         }
     })
 }
+
+const AK_K1: f64 = 18.7;
+const AK_K2: f64 = 0.58;
+const AK_K3: f64 = 0.09;
+const AK_K4: f64 = 0.42;
+const AK_KBIG: f64 = 34.4;
+const AK_KLA: f64 = 3.3;
+/// The Akzo Nobel problem's `Ks`.
+pub const AK_KS: f64 = 115.83;
+const AK_PO2: f64 = 0.9;
+const AK_HEN: f64 = 737.0;
+
+/// The chemical Akzo Nobel problem (Test Set `chemakzo.F` rev 1.2), an index-1 DAE with
+/// `M = diag(1, 1, 1, 1, 1, 0)`: six components, the last algebraic
+/// (`0 = Ks·y₁·y₄ − y₆`), on [0, 180] from [`chemakzo_y0`].
+pub fn chemakzo() -> impl crate::DualSystem<Const<6>> + Clone {
+    const K2K: f64 = AK_K2 / AK_KBIG;
+    const PH: f64 = AK_PO2 / AK_HEN;
+    crate::model!(|_t, y: [S; 6]| {
+        let sqy2 = y[1].clone().sqrt();
+        let r1 = S::from(AK_K1) * y[0].clone() * y[0].clone() * y[0].clone() * y[0].clone() * sqy2.clone();
+        let r2 = S::from(AK_K2) * y[2].clone() * y[3].clone();
+        let r3 = S::from(K2K) * y[0].clone() * y[4].clone();
+        let r4 = S::from(AK_K3) * y[0].clone() * y[3].clone() * y[3].clone();
+        let r5 = S::from(AK_K4) * (y[5].clone() * y[5].clone()) * sqy2;
+        let fin = S::from(AK_KLA) * (S::from(PH) - y[1].clone());
+        vector![
+            -2.0 * r1.clone() + r2.clone() - r3.clone() - r4.clone(),
+            -0.5 * r1.clone() - r4.clone() - 0.5 * r5.clone() + fin,
+            r1.clone() - r2.clone() + r3.clone(),
+            -r2.clone() + r3.clone() - 2.0 * r4,
+            r2 - r3 + r5,
+            S::from(AK_KS) * y[0].clone() * y[3].clone() - y[5].clone()
+        ]
+    })
+}
+/// [`chemakzo`] at `t = 180` (`chemakzo.F`: PSIDE at rtol = atol = 1e-19).
+pub const CHEMAKZO_REF_180: [f64; 6] = [
+    0.1150794920661702,
+    0.1203831471567715e-2,
+    0.1611562887407974,
+    0.3656156421249283e-3,
+    0.1708010885264404e-1,
+    0.4873531310307455e-2,
+];
+/// [`chemakzo`]'s consistent start (`y₆ = Ks·y₁·y₄` in the same rounding as `f`).
+pub fn chemakzo_y0() -> nalgebra::SVector<f64, 6> {
+    vector![0.444, 0.00123, 0.0, 0.007, 0.0, AK_KS * 0.444 * 0.007]
+}
+
+const TA_UB: f64 = 6.0;
+const TA_UF: f64 = 0.026;
+const TA_ALPHA: f64 = 0.99;
+const TA_OMA: f64 = 1.0 - TA_ALPHA;
+const TA_BETA: f64 = 1e-6;
+const TA_R0: f64 = 1000.0;
+const TA_R: f64 = 9000.0;
+const TA_W: f64 = 200.0 * std::f64::consts::PI;
+
+/// The transistor amplifier (Test Set `transamp.F` rev 1.3), an index-1 DAE with
+/// [`transamp_mass`]: eight node voltages, `M` of rank 5 (the capacitors), on [0, 0.2]
+/// driven by `U_e(t) = 0.1·sin(200πt)`, from `y₀ = (0, 3, 3, 6, 3, 3, 6, 0)`.
+pub fn transamp() -> impl crate::DualSystem<Const<8>> + Clone {
+    crate::model!(|t: S, y: [S; 8]| {
+        let uet = (t * TA_W).sin() * 0.1;
+        let fac1 = (((y[1].clone() - y[2].clone()) / TA_UF).exp() - 1.0) * TA_BETA;
+        let fac2 = (((y[4].clone() - y[5].clone()) / TA_UF).exp() - 1.0) * TA_BETA;
+        vector![
+            (y[0].clone() - uet) / TA_R0,
+            y[1].clone() / TA_R + (y[1].clone() - TA_UB) / TA_R + fac1.clone() * TA_OMA,
+            y[2].clone() / TA_R - fac1.clone(),
+            (y[3].clone() - TA_UB) / TA_R + fac1 * TA_ALPHA,
+            y[4].clone() / TA_R + (y[4].clone() - TA_UB) / TA_R + fac2.clone() * TA_OMA,
+            y[5].clone() / TA_R - fac2.clone(),
+            (y[6].clone() - TA_UB) / TA_R + fac2 * TA_ALPHA,
+            y[7].clone() / TA_R
+        ]
+    })
+}
+/// [`transamp`]'s mass matrix (the Test Set's signs: `M·y' = f`).
+pub fn transamp_mass() -> nalgebra::DMatrix<f64> {
+    let (c1, c2, c3, c4, c5) = (1e-6, 2e-6, 3e-6, 4e-6, 5e-6);
+    #[rustfmt::skip]
+    let m = nalgebra::DMatrix::from_row_slice(8, 8, &[
+        -c1,  c1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+         c1, -c1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        0.0, 0.0, -c2, 0.0, 0.0, 0.0, 0.0, 0.0,
+        0.0, 0.0, 0.0, -c3,  c3, 0.0, 0.0, 0.0,
+        0.0, 0.0, 0.0,  c3, -c3, 0.0, 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, -c4, 0.0, 0.0,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -c5,  c5,
+        0.0, 0.0, 0.0, 0.0, 0.0, 0.0,  c5, -c5,
+    ]);
+    m
+}
+/// [`transamp`] at `t = 0.2` (`transamp.F`: PSIDE at rtol = atol = 1e-14).
+pub const TRANSAMP_REF_02: [f64; 8] = [
+    -0.5562145012262709e-2,
+    0.3006522471903042e1,
+    0.2849958788608128e1,
+    0.2926422536206241e1,
+    0.2704617865010554e1,
+    0.2761837778393145e1,
+    0.4770927631616772e1,
+    0.1236995868091548e1,
+];
+
+/// Robertson with the conservation law as its third equation, `0 = y₁ + y₂ + y₃ − 1`
+/// (`M = diag(1, 1, 0)`); its solution is [`robertson`]'s.
+pub fn robertson_dae() -> impl crate::DualSystem<Const<3>> + Clone {
+    crate::model!(|_t, y: [S; 3]| vector![
+        -0.04 * y[0].clone() + y[1].clone() * y[2].clone() * 1.0e4,
+        0.04 * y[0].clone() - y[1].clone() * y[2].clone() * 1.0e4 - y[1].clone() * y[1].clone() * 3.0e7,
+        y[0].clone() + y[1].clone() + y[2].clone() - 1.0
+    ])
+}

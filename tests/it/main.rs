@@ -11,6 +11,7 @@ mod bdf;
 mod calibration;
 mod carlike_exact;
 mod convergence;
+mod dae;
 mod drift;
 mod driver;
 mod ensemble;

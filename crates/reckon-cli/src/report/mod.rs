@@ -26,6 +26,7 @@ type Res<T = ()> = Result<T, Box<dyn Error>>;
 mod convergence;
 mod drift;
 mod ensembles;
+mod hybrid;
 mod imu;
 mod pitfalls;
 mod stiffness;
@@ -97,6 +98,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     stiffness::section(&mut r, dir, fast)?;
     work_precision::section(&mut r, dir, fast)?;
     work_precision::stiff_work_precision(&mut r, dir, fast)?;
+    hybrid::section(&mut r, dir)?;
 
     symbolic::section(&mut r, dir)?;
 

@@ -1,10 +1,12 @@
 //! Kalman prediction and correction, the EKF with step-map Jacobians by automatic
-//! differentiation, and landmark SLAM for an underwater robot.
+//! differentiation, landmark SLAM for an underwater robot, and Gaussians on SE(2) and
+//! SE(3) in the tangent space ([`manifold`]).
 //!
 //! Notation follows the robotics teaching material reckon reproduces: estimate `x̂`,
 //! covariance `Γ`, evolution `x ← A·x + u + α` with `α ~ N(0, Γ_α)`, observation
 //! `y = C·x + β` with `β ~ N(0, Γ_β)`.
 
+pub mod manifold;
 pub mod slam;
 pub mod step;
 

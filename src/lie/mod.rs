@@ -20,8 +20,10 @@
 //! Taylor series below `θ = 10⁻²` (`(θ − sin θ)/θ³` and `Q`'s `c₂`, `c₃`: below 0.1), where
 //! the truncation error is below 10⁻¹⁶ relative.
 //!
-//! Not here yet (issue 37): Lie-group integrators (Lie–Euler, RKMK4, commutator-free
-//! order 4) through the driver, uncertainty on the manifold, benches.
+//! Uncertainty on these groups (a Gaussian in the right tangent space, its prediction,
+//! correction and NEES) is [`crate::kalman::manifold`]. Not here yet (issue 37):
+//! Lie-group integrators (Lie–Euler, RKMK4, commutator-free order 4) through the driver,
+//! benches.
 
 pub mod se2;
 pub mod se3;

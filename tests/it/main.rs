@@ -30,6 +30,7 @@ mod lie;
 mod literals;
 mod lsq;
 mod lti;
+mod manifold;
 mod model_cache;
 mod odometry;
 mod reliability;

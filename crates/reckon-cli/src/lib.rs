@@ -9,6 +9,7 @@ pub mod ensemble;
 pub mod jacobian;
 pub mod odometry;
 pub mod plot;
+pub mod preintegrate;
 pub mod registry;
 pub mod report;
 pub mod simulate;
@@ -85,6 +86,9 @@ pub enum Command {
     /// Monte-Carlo ensemble of noisy encoder robots on every core (`--shard K/N` for
     /// batch schedulers, `ensemble merge` to combine shards exactly).
     Ensemble(Box<ensemble::EnsembleCmd>),
+    /// IMU preintegration (Forster et al. 2017) of a gyro/accelerometer log in keyframe
+    /// windows: ΔR, Δv, Δp, their 9×9 covariance and the bias Jacobians per window.
+    Preintegrate(preintegrate::PreintegrateArgs),
 }
 
 /// Parse `argv` (program name first) and run the command. `Err` carries clap's own
@@ -120,5 +124,6 @@ pub fn dispatch(args: Args) -> Result<(), Box<dyn std::error::Error>> {
         Command::Jacobian(a) => jacobian::run(&a),
         Command::Calibrate(a) => calibrate::run(&a),
         Command::Ensemble(a) => ensemble::run(&a),
+        Command::Preintegrate(a) => preintegrate::run(&a),
     }
 }

@@ -8,6 +8,7 @@ mod golden_file;
 mod cli;
 mod cli_calibrate;
 mod cli_ensemble;
+mod cli_preintegrate;
 mod cli_studies;
 mod docs_numbers;
 mod fuzz_replay;

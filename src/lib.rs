@@ -26,13 +26,13 @@ pub mod vehicles;
 pub use error::{Error, Result};
 pub use integrator::Integrator;
 pub use jacobian::LinearSolver;
+pub use model::mass::Mass;
 pub use model::{ClosureModel, DualFlow, DualSystem, Flow, Lti, ParamModel, Stats, System};
 pub use nalgebra;
 pub use num_dual;
 pub use problem::Problem;
 pub use problem::controls::Controls;
 pub use problem::events::{Direction, Event};
-pub use problem::mass::Mass;
 pub use problem::options::{Options, Save, StepSize};
 pub use problem::solution::{Solution, Switch, SwitchReason};
 

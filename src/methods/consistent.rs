@@ -4,8 +4,8 @@
 
 use crate::error::{Error, Result};
 use crate::methods::step_size::Weights;
+use crate::model::mass::Mass;
 use crate::model::{Eval, System};
-use crate::problem::mass::Mass;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, OMatrix, OVector};
 

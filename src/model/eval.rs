@@ -56,7 +56,7 @@ where
     /// The linear-algebra choice and the model's sparse Jacobian (`crate::sparse`).
     pub(crate) sparse: crate::jacobian::choice::Slot<'a>,
     /// The problem's mass matrix (`None`: the identity).
-    pub(crate) mass: Option<&'a crate::problem::mass::Mass>,
+    pub(crate) mass: Option<&'a crate::model::mass::Mass>,
     _dim: PhantomData<D>,
 }
 

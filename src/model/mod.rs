@@ -14,6 +14,7 @@ mod eval;
 mod flow;
 pub(crate) mod lhs;
 pub mod lti;
+pub mod mass;
 pub mod params;
 
 #[doc(hidden)]

@@ -3,7 +3,6 @@
 
 pub mod controls;
 pub mod events;
-pub mod mass;
 pub mod options;
 pub mod solution;
 
@@ -48,7 +47,7 @@ where
     pub held: Option<Vec<f64>>,
     pub(crate) events: Vec<Event<'a, D>>,
     /// `M` of `M·x' = f(t, x)` (`None`: the identity).
-    pub(crate) mass: Option<mass::Mass>,
+    pub(crate) mass: Option<crate::model::mass::Mass>,
 }
 
 impl<'a, D: Dim, S: System<D>> Problem<'a, D, S>
@@ -68,10 +67,10 @@ where
             mass: None,
         }
     }
-    /// Solve `M·x' = f(t, x)` with a constant mass matrix `M` ([`Mass`](mass::Mass)),
+    /// Solve `M·x' = f(t, x)` with a constant mass matrix `M` ([`Mass`](crate::Mass)),
     /// possibly singular (an index-1 DAE), with [`Bdf`](crate::methods::Bdf) or
     /// [`Rodas5P`](crate::methods::Rodas5P); other methods refuse it.
-    pub fn mass(mut self, m: mass::Mass) -> Self {
+    pub fn mass(mut self, m: crate::model::mass::Mass) -> Self {
         self.mass = Some(m);
         self
     }

@@ -84,13 +84,21 @@ where
         if events.is_empty() {
             return Ok(EventEnd::Passed);
         }
-        let mut found: Vec<(f64, usize)> = Vec::new();
+        let mut found: Vec<(f64, usize, f64)> = Vec::new();
         for (i, ev) in events.iter().enumerate() {
             let g1 = (ev.g)(*t_new, &self.x_new);
             if g1.is_nan() {
                 return Err(Error::EventNaN { index: i, t: *t_new });
             }
             let g0 = self.events.g_prev[i];
+            if let Some(band) = self.events.held[i] {
+                // held on the surface since a reset: leaving the band is not a crossing
+                if g1.abs() > band {
+                    self.events.held[i] = None;
+                }
+                self.events.g_prev[i] = g1;
+                continue;
+            }
             if ev.crosses(g0, g1) {
                 let mut te = if g1 == 0.0 {
                     *t_new
@@ -100,13 +108,13 @@ where
                 if ev.reset.is_some() {
                     te = self.before_crossing(i, g0, te, h)?;
                 }
-                found.push((te, i));
+                found.push((te, i, g0));
             }
             self.events.g_prev[i] = g1;
         }
         // stable: simultaneous zeros in the order the events were given
         found.sort_by(|a, b| (self.dir * a.0).total_cmp(&(self.dir * b.0)));
-        for (te, i) in found {
+        for (te, i, g_start) in found {
             let x = horner(&self.output.dense, (te - self.t) / h);
             let ev = &events[i];
             self.events.counts[i] += 1;
@@ -143,6 +151,7 @@ where
                         return Err(Error::EventNaN { index: j, t: te });
                     }
                     self.events.g_prev[j] = g;
+                    self.events.held[j] = None;
                 }
                 // the events recorded at this time, the reset's own included
                 let at_te: Vec<usize> = self
@@ -153,7 +162,7 @@ where
                     .take_while(|h| h.t == te)
                     .map(|h| h.index)
                     .collect();
-                self.passed_at_reset(te, &at_te, &x, &f_before)?;
+                self.passed_at_reset(te, &at_te, &x, &f_before, g_start.abs())?;
                 self.output.jump = Some(x);
                 self.check_zeno(te)?;
                 return Ok(EventEnd::Reset);
@@ -170,14 +179,20 @@ where
     /// left the crossing motion alone (a counter, a change of inputs that does not turn
     /// it): its next step must not find the same crossing again. A bounce turns the motion
     /// away, and a reset that turns it into the surface starts a new crossing (an event
-    /// again at once, Zeno if it repeats): neither is touched. One `f` call per reset
-    /// here, one before it.
+    /// again at once, Zeno if it repeats): neither is touched. A reset that leaves `g`
+    /// unchanged with the flow after it tangent to the surface (the probe does not move
+    /// `g` at all: a turn onto the surface) holds the event while `|g| ≤ 1000·ε·|g₀|`
+    /// (`g₀`, passed as `g_start`, its value at the start of the crossing step): rounding
+    /// drift along the surface is not a second occurrence, and the first value outside
+    /// that band re-arms it (a drift past the band, e.g. `v·cos(π/2 in f64)·t` growing,
+    /// counts again). One `f` call per reset here, one before it.
     fn passed_at_reset(
         &mut self,
         te: f64,
         recorded: &[usize],
         x_before: &OVector<f64, D>,
         f_before: &OVector<f64, D>,
+        g_start: f64,
     ) -> Result<()> {
         if recorded.is_empty() {
             return Ok(());
@@ -192,10 +207,20 @@ where
         before.axpy(dt, f_before, 1.0);
         for &j in recorded {
             let g = &events[j].g;
-            let through_before = events[j].crosses(g(te, x_before), g(te + dt, &before));
+            let g_minus = g(te, x_before);
+            let through_before = events[j].crosses(g_minus, g(te + dt, &before));
+            let g_plus = self.events.g_prev[j];
             let g_after = g(te + dt, &after);
-            if through_before && events[j].crosses(self.events.g_prev[j], g_after) {
-                self.events.g_prev[j] = g_after;
+            if events[j].crosses(g_plus, g_after) {
+                if through_before {
+                    self.events.g_prev[j] = g_after;
+                }
+            } else if g_after == g_plus && g_plus == g_minus {
+                // the reset left `g` where it was, at the surface, and the flow after it
+                // runs along the surface to rounding (a turn onto it): held until `g`
+                // leaves the rounding band of the approach, so drift along the surface is
+                // not a second occurrence
+                self.events.held[j] = Some(1e3 * f64::EPSILON * g_start.max(g_minus.abs()));
             }
         }
         Ok(())

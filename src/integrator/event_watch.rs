@@ -16,6 +16,10 @@ where
 {
     /// `g_i(t, x)` at the last accepted state.
     pub(super) g_prev: Vec<f64>,
+    /// `Some(b)` while event `i` is held after a reset that left the state on its surface
+    /// moving along it: no crossing is looked for while `|g_i| ≤ b` (rounding drift along
+    /// the surface is not a new occurrence); the first value outside re-arms it.
+    pub(super) held: Vec<Option<f64>>,
     pub(super) hits: Vec<EventHit<D>>,
     /// Occurrences of each event so far (for `terminal_after`).
     pub(super) counts: Vec<u64>,
@@ -40,6 +44,7 @@ where
         }
         Ok(EventWatch {
             counts: vec![0; g_prev.len()],
+            held: vec![None; g_prev.len()],
             g_prev,
             hits: Vec::new(),
             resets: std::collections::VecDeque::new(),

@@ -559,3 +559,37 @@ fn sensitivities_across_a_bounce_take_the_saltation_matrix() {
         Problem::new(&f, vector![h0, v0], (0.0, t_end)).event(Event::new(|_t, x: &SVector<f64, 2>| x[0]).terminal());
     assert!(sensitivity::solve(&stop, Rk45, &o, &SensitivityOptions::default()).is_err());
 }
+
+/// An exact flow with resets, and a reset that leaves the state on the event's surface:
+/// the unicycle drives along x at 1 m/s; where x crosses 1 a reset turns it by π/2, onto
+/// the line x = 1 itself (in f64, cos(π/2) = 6e-17, so rounding alone would carry it
+/// across again); at t = 2 it turns back (heading π), at t = 2.5 forward (heading 0), and
+/// at t = 3 it crosses x = 1 again, for real: (1, 1.5) heading along y at t = 3.5. The
+/// flow is exact, so only the events' locations limit the answer.
+#[test]
+fn exact_flow_with_resets_onto_the_surface() {
+    use reckon::methods::Exact;
+    use reckon::vehicles::unicycle;
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let turn = Event::new(|_t, x: &SVector<f64, 3>| x[0] - 1.0)
+        .direction(Direction::Rising)
+        .reset(|_t, x| vector![x[0], x[1], x[2] + FRAC_PI_2]);
+    let back = Event::new(|t, _x: &SVector<f64, 3>| t - 2.0).reset(|_t, x| vector![x[0], x[1], PI]);
+    let forth = Event::new(|t, _x: &SVector<f64, 3>| t - 2.5).reset(|_t, x| vector![x[0], x[1], 0.0]);
+    let p = Problem::new(unicycle::model(), vector![0.0, 0.0, 0.0], (0.0, 3.5))
+        .inputs(vec![1.0, 0.0])
+        .event(turn)
+        .event(back)
+        .event(forth);
+    let sol = p
+        .solve(Exact::new(unicycle::flow), &Options::default().rtol(1e-10).atol(1e-12))
+        .unwrap();
+    let hits: Vec<(usize, f64)> = sol.events.iter().map(|e| (e.index, e.t)).collect();
+    assert_eq!(hits.iter().map(|h| h.0).collect::<Vec<_>>(), [0, 1, 2, 0], "{hits:?}");
+    for ((_, t), want) in hits.iter().zip([1.0, 2.0, 2.5, 3.0]) {
+        assert!((t - want).abs() < 1e-12, "{hits:?}");
+    }
+    let x = sol.last().1;
+    let want = vector![1.0, 1.5, FRAC_PI_2];
+    assert!((x - want).amax() < 1e-12, "{x} against {want}");
+}

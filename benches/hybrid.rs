@@ -3,7 +3,8 @@
 //! counter `n ← n + 1` (the same trajectory, but each reset restarts the method: its
 //! carried stage or history dropped, Hairer's first step chosen again). The difference per
 //! crossing is the reset's cost, printed with the plain run's time per step to state it in
-//! steps. RK45 and BDF at rtol 1e-8, one criterion group per method (interleaved).
+//! steps. RK45 and BDF at rtol 1e-8, one criterion group per method (interleaved). Then
+//! the saltation update's cost ([`saltation`]).
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{SVector, vector};
@@ -66,5 +67,51 @@ fn bench(c: &mut Criterion) {
     group(c, "bdf", Bdf::default());
 }
 
-criterion_group!(benches, bench);
+criterion_group!(benches, bench, saltation);
 criterion_main!(benches);
+
+/// The saltation update's cost: the bouncing ball's sensitivities `∂x/∂x₀` over 12
+/// bounces (RK45, rtol 1e-8) against the same solve without sensitivities; the extra
+/// time per bounce beyond the run without resets' sensitivity cost is the update's.
+fn saltation(c: &mut Criterion) {
+    use reckon::Direction;
+    use reckon::sensitivity::{self, SensitivityOptions};
+    let f = model!(|_t, x: [S; 2]| vector![x[1].clone(), S::from(-9.81)]);
+    let t_end = 6.0;
+    let run = |reset: bool, sens: bool| {
+        let g = |_t: f64, x: &SVector<f64, 2>| x[0];
+        let ev = if reset {
+            Event::new(g)
+                .direction(Direction::Falling)
+                .reset(|_t, x| vector![x[0], -0.8 * x[1]])
+        } else {
+            Event::new(g).direction(Direction::Falling)
+        };
+        // without the reset the ball falls through the floor: the same span, no bounces
+        let p = Problem::new(&f, vector![10.0, 0.0], (0.0, t_end)).event(ev);
+        let o = Options::default().rtol(1e-8).atol(1e-10).save(Save::End);
+        if sens {
+            let s = sensitivity::solve(&p, Rk45, &o, &SensitivityOptions::default()).unwrap();
+            (s.stats.accepted, s.t.len())
+        } else {
+            let s = p.solve(Rk45, &o).unwrap();
+            (s.stats.accepted, s.events.len())
+        }
+    };
+    let bounces = run(true, false).1;
+    eprintln!(
+        "hybrid/saltation: {bounces} bounces; steps: plain {} / with S {}, resets {} / with S {}",
+        run(false, false).0,
+        run(false, true).0,
+        run(true, false).0,
+        run(true, true).0
+    );
+    let mut g = c.benchmark_group("hybrid/saltation");
+    g.warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
+    g.bench_function("falls-x", |b| b.iter(|| run(black_box(false), false)));
+    g.bench_function("falls-x-and-S", |b| b.iter(|| run(black_box(false), true)));
+    g.bench_function("bounces-x", |b| b.iter(|| run(black_box(true), false)));
+    g.bench_function("bounces-x-and-S", |b| b.iter(|| run(black_box(true), true)));
+    g.finish();
+}

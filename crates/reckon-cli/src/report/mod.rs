@@ -23,6 +23,7 @@ use std::path::Path;
 
 type Res<T = ()> = Result<T, Box<dyn Error>>;
 
+mod banana;
 mod convergence;
 mod drift;
 mod ensembles;
@@ -99,6 +100,7 @@ pub fn run(dir: &Path, fast: bool) -> Res<usize> {
     work_precision::section(&mut r, dir, fast)?;
     work_precision::stiff_work_precision(&mut r, dir, fast)?;
     hybrid::section(&mut r, dir)?;
+    banana::section(&mut r, dir, fast)?;
 
     symbolic::section(&mut r, dir)?;
 

@@ -145,6 +145,8 @@ def _method_name(method: Any) -> str:
 
 
 def _tolerance(value: Any, n: int, what: str) -> list[float]:
+    if type(value) is float:  # the common case, without numpy's per-call cost
+        return [value]
     v = np.asarray(value, dtype=float)
     if v.ndim == 0:
         return [float(v)]
@@ -153,7 +155,7 @@ def _tolerance(value: Any, n: int, what: str) -> list[float]:
     return [float(x) for x in v]
 
 
-def _prepare_events(events: Any, args: tuple | None) -> list[tuple[Callable, bool, float]]:
+def _prepare_events(events: Any, args: tuple | None) -> list[tuple[Callable, int, float]]:
     if events is None:
         return []
     if callable(events):
@@ -162,14 +164,9 @@ def _prepare_events(events: Any, args: tuple | None) -> list[tuple[Callable, boo
     for event in events:
         terminal = getattr(event, "terminal", False)
         if isinstance(terminal, (bool, np.bool_)):
-            stop = bool(terminal)
+            stop = int(bool(terminal))
         elif isinstance(terminal, (int, np.integer)) and terminal >= 0:
-            if terminal > 1:
-                raise ValueError(
-                    f"event.terminal = {terminal} (stop after {terminal} occurrences) is not "
-                    "supported yet: reckon's events stop at their first zero (terminal=True/1)"
-                )
-            stop = terminal == 1
+            stop = int(terminal)  # stop at the terminal-th zero, 0: never
         else:
             raise ValueError("The `terminal` attribute of each event must be a boolean or positive integer.")
         direction = float(getattr(event, "direction", 0))
@@ -300,14 +297,24 @@ def solve_ivp(
         rtol_v = [max(r, 100 * _EPS) for r in rtol_v]
     atol_v = _tolerance(atol, n, "atol")
 
+    t_eval_list = None
     if t_eval is not None:
         t_eval = np.asarray(t_eval, dtype=float)
         if t_eval.ndim != 1:
             raise ValueError("`t_eval` must be 1-dimensional.")
-        if np.any(t_eval < min(t0, tf)) or np.any(t_eval > max(t0, tf)):
+        t_eval_list = t_eval.tolist()
+        lo, hi = min(t0, tf), max(t0, tf)
+        if len(t_eval_list) <= 64:  # plain Python is cheaper than numpy's calls here
+            outside = any(v < lo or v > hi for v in t_eval_list)
+            pairs = zip(t_eval_list, t_eval_list[1:])
+            unsorted = any(b <= a for a, b in pairs) if tf > t0 else any(b >= a for a, b in pairs)
+        else:
+            outside = bool(np.any(t_eval < lo) or np.any(t_eval > hi))
+            d = np.diff(t_eval)
+            unsorted = bool(np.any(d <= 0)) if tf > t0 else bool(np.any(d >= 0))
+        if outside:
             raise ValueError("Values in `t_eval` are not within `t_span`.")
-        d = np.diff(t_eval)
-        if (tf > t0 and np.any(d <= 0)) or (tf < t0 and np.any(d >= 0)):
+        if tf != t0 and unsorted:
             raise ValueError("Values in `t_eval` are not properly sorted.")
     evs = _prepare_events(events, args)
     if max_step is None or math.isinf(max_step):
@@ -317,12 +324,12 @@ def solve_ivp(
         None if first_step is None else float(first_step),
         float(max_step),
         None if fixed_step is None else float(fixed_step),
-        None if t_eval is None or len(t_eval) == 0 else [float(v) for v in t_eval],
+        None if t_eval_list is None or len(t_eval_list) == 0 else t_eval_list,
         bool(dense_output),
         evs,
         max_steps,
     )
-    y0_list = [float(v) for v in y0]
+    y0_list = y0.tolist()
     if model is not None:
         r = _solve_traced(model, t0, tf, y0_list, name, rtol_v, atol_v, *common)
     else:

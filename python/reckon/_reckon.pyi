@@ -32,7 +32,7 @@ def solve(
     fixed_step: float | None,
     t_eval: Sequence[float] | None,
     dense: bool,
-    events: Sequence[tuple[Callable[..., float], bool, float]],
+    events: Sequence[tuple[Callable[..., float], int, float]],
     max_steps: int | None,
 ) -> dict[str, Any]: ...
 
@@ -49,7 +49,7 @@ def solve_traced(
     fixed_step: float | None,
     t_eval: Sequence[float] | None,
     dense: bool,
-    events: Sequence[tuple[Callable[..., float], bool, float]],
+    events: Sequence[tuple[Callable[..., float], int, float]],
     max_steps: int | None,
 ) -> dict[str, Any]: ...
 def _rust_reference(

@@ -16,7 +16,8 @@ use pyo3::types::{PyList, PyTuple};
 use reckon::__private::Signed;
 use reckon::Error;
 use reckon::jacobian::{AUTO_MAX_DENSITY, AUTO_MIN_STATES, SparseJacobian};
-use reckon::nalgebra::{DMatrix, DVector, Dyn};
+use reckon::nalgebra::allocator::Allocator;
+use reckon::nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 use reckon::num_dual::DualNum;
 use reckon::symbolic::{CompiledJacobian, CompiledVector, Sym, Traced};
 use std::cell::{Cell, RefCell};
@@ -725,8 +726,13 @@ impl TracedSystem {
     }
 }
 
-impl reckon::System<Dyn> for TracedSystem {
-    fn rhs(&self, t: f64, x: &DVector<f64>, _u: &[f64], dx: &mut DVector<f64>) {
+/// Generic over the state's dimension: `Dyn`, or a fixed `Const<N>` for small models
+/// (stack vectors and a stack LU, as a `model!` model in Rust gets).
+impl<D: Dim> reckon::System<D> for TracedSystem
+where
+    DefaultAllocator: Allocator<D>,
+{
+    fn rhs(&self, t: f64, x: &OVector<f64, D>, _u: &[f64], dx: &mut OVector<f64, D>) {
         if self
             .rhs
             .borrow_mut()
@@ -736,7 +742,10 @@ impl reckon::System<Dyn> for TracedSystem {
             dx.fill(f64::NAN);
         }
     }
-    fn jacobian(&self, t: f64, x: &DVector<f64>, _u: &[f64], jac: &mut DMatrix<f64>) {
+    fn jacobian(&self, t: f64, x: &OVector<f64, D>, _u: &[f64], jac: &mut OMatrix<f64, D, D>)
+    where
+        DefaultAllocator: Allocator<D, D>,
+    {
         if self
             .jac
             .borrow_mut()
@@ -746,7 +755,7 @@ impl reckon::System<Dyn> for TracedSystem {
             jac.fill(f64::NAN);
         }
     }
-    fn time_derivative(&self, t: f64, x: &DVector<f64>, _u: &[f64], dfdt: &mut DVector<f64>) -> bool {
+    fn time_derivative(&self, t: f64, x: &OVector<f64, D>, _u: &[f64], dfdt: &mut OVector<f64, D>) -> bool {
         match &self.dt {
             Some(dt) => {
                 if dt.borrow_mut().eval(t, x.as_slice(), &[], dfdt.as_mut_slice()).is_err() {

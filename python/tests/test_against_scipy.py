@@ -227,6 +227,26 @@ def test_nonterminal_events_count_every_crossing():
     assert r.status == 0 and r.t[-1] == 20.0
 
 
+@pytest.mark.parametrize("method", ["RK45", "BDF", "Rodas5P"])
+def test_terminal_count_stops_at_the_nth_zero(method):
+    # terminal = 3: the run stops at the third zero of cos t, 5π/2, as scipy's does
+    def zero(t, y):
+        return y[0]
+
+    zero.terminal = 3
+    r = reckon.solve_ivp(oscillator, (0.0, 20.0), [1.0, 0.0], method=method, events=zero, rtol=1e-10, atol=1e-12)
+    s = si.solve_ivp(oscillator, (0.0, 20.0), [1.0, 0.0], events=zero, rtol=1e-10, atol=1e-12)
+    want = np.pi / 2 + np.arange(3) * np.pi
+    close(r.t_events[0], want, 1e-8, 0)
+    close(s.t_events[0], want, 1e-8, 0)
+    assert r.status == s.status == 1
+    assert abs(r.t[-1] - 2.5 * np.pi) < 1e-8 and abs(s.t[-1] - 2.5 * np.pi) < 1e-8
+    # not yet at the count: the run reaches the end with both zeros recorded
+    zero.terminal = 9
+    r = reckon.solve_ivp(oscillator, (0.0, 5.0), [1.0, 0.0], method=method, events=zero, rtol=1e-10, atol=1e-12)
+    assert r.status == 0 and r.t[-1] == 5.0 and len(r.t_events[0]) == 2
+
+
 def test_events_get_args_and_terminal_with_t_eval():
     def below(t, y, level):
         return y[0] - level

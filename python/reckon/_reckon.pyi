@@ -229,3 +229,27 @@ def censi_fit(
     trim_fraction: float,
     trim_rounds: int,
 ) -> dict[str, Any]: ...
+def vehicle_sensitivities(
+    kind: str,
+    params: Sequence[float],
+    x0: Sequence[float],
+    t: npt.NDArray[np.float64],
+    u: npt.NDArray[np.float64],
+    method: str,
+    rtol: float,
+    atol: float,
+    max_step: float,
+    step: float | None,
+    max_steps: int,
+) -> dict[str, Any]: ...
+def encoder_least_squares(
+    t: npt.NDArray[np.float64],
+    left: npt.NDArray[np.float64],
+    right: npt.NDArray[np.float64],
+    pose_t: npt.NDArray[np.float64],
+    poses: npt.NDArray[np.float64],
+    wheel_diameter: float,
+    wheel_separation: float,
+    pulses_per_rev: float,
+    sigma: Sequence[float],
+) -> dict[str, Any]: ...

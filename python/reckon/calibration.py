@@ -16,12 +16,14 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ._reckon import censi_fit as _censi
+from ._reckon import encoder_least_squares as _encoder_least_squares
 from ._reckon import least_squares as _least_squares
 from ._reckon import umbmark_fit as _umbmark
 from ._sensitivity import _floats, _invalid, _param_names, _traced
 
 __all__ = [
     "least_squares",
+    "encoder_least_squares",
     "umbmark",
     "censi",
     "LeastSquaresResult",
@@ -134,6 +136,53 @@ def least_squares(
     cov = out["covariance"]
     return LeastSquaresResult(
         params=out["value"], names=tuple(_param_names(fun, len(p))), covariance=cov, std=_std(cov),
+        residuals=out["residuals"], dof=out["dof"], sigma2=out["sigma2"],
+        iterations=out["iterations"], condition=out["condition"],
+    )
+
+
+def encoder_least_squares(
+    t: Any,
+    left: Any,
+    right: Any,
+    pose_t: Any,
+    poses: Any,
+    *,
+    wheel_diameter: float,
+    wheel_separation: float,
+    pulses_per_rev: float,
+    sigma: Sequence[float] = (0.01, 0.01, 0.01),
+) -> LeastSquaresResult:
+    """A differential drive's wheel radii and wheelbase ``(r_l, r_r, b)`` from an encoder
+    log and measured poses: :func:`least_squares` on ``x' = v cos θ, y' = v sin θ,
+    θ' = ω`` with ``v = (r_r ω_r + r_l ω_l)/2``, ``ω = (r_r ω_r − r_l ω_l)/b`` and the
+    wheel speeds ``ω = 2π·Δn/(N·Δt)`` held over each encoder interval (RK45 at rtol
+    1e-9), starting from the nominal geometry (``r = D/2``, ``b`` = ``wheel_separation``).
+
+    ``t``, ``left``, ``right``: the encoder samples (pulse increments over ``(t[k−1], t[k]]``;
+    the first sample's increments are ignored). ``pose_t``, ``poses`` (shape ``(3, K)``:
+    x, y, θ): the measured poses; the first one at or after ``t[0]`` is the start, the later
+    ones up to ``t[-1]`` are observed with standard deviations ``sigma = (σ_x, σ_y, σ_θ)``
+    (θ's residuals wrapped). This is ``reckon calibrate``'s least-squares fit.
+    """
+    arrays = [_floats(v, w) for v, w in ((t, "t"), (left, "left"), (right, "right"), (pose_t, "pose_t"))]
+    try:
+        p = np.asarray(poses, dtype=float)
+    except (TypeError, ValueError) as e:
+        raise _invalid("poses", f"not an array of numbers ({e})") from None
+    if p.shape != (3, len(arrays[3])):
+        raise _invalid("poses", f"shape (3, {len(arrays[3])}) (x, y, θ × times) is needed, got {p.shape}")
+    sig = _floats(sigma, "sigma")
+    if len(sig) != 3:
+        raise _invalid("sigma", f"(σ_x, σ_y, σ_θ) is needed, got {len(sig)} values")
+    a = [np.ascontiguousarray(v, dtype=float) for v in arrays]
+    out = _encoder_least_squares(
+        *a, np.ascontiguousarray(p.reshape(-1)), float(wheel_diameter), float(wheel_separation),
+        float(pulses_per_rev), sig,
+    )
+    cov = out["covariance"]
+    return LeastSquaresResult(
+        params=out["value"], names=tuple(out["names"]), covariance=cov, std=_std(cov),
         residuals=out["residuals"], dof=out["dof"], sigma2=out["sigma2"],
         iterations=out["iterations"], condition=out["condition"],
     )

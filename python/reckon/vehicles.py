@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ._errors import InvalidInput
+from ._reckon import vehicle_sensitivities as _sensitivities
 from ._reckon import vehicle_simulate as _simulate
 from ._reckon import vehicle_step as _step
 
@@ -162,12 +163,17 @@ class DiffDrive(Vehicle):
 
 @dataclass(frozen=True)
 class Trajectory:
-    """The result of :func:`simulate`: ``y[:, k]`` is the state at ``t[k]``."""
+    """The result of :func:`simulate`: ``y[:, k]`` is the state at ``t[k]``; with
+    ``sensitivities=True`` also ``dy_dx0[:, :, k] = ∂x(t_k)/∂x₀`` (``(n, n, K)``) and
+    ``dy_dp[:, :, k] = ∂x(t_k)/∂p`` (``(n, n_p, K)``; the parameters are
+    :class:`DiffDrive`'s ``(left_radius, right_radius, wheelbase)``, none for the others)."""
 
     t: np.ndarray
     y: np.ndarray
     method: str
     stats: dict = field(default_factory=dict)
+    dy_dx0: np.ndarray | None = None
+    dy_dp: np.ndarray | None = None
 
 
 def _vector(v: Any, what: str) -> list[float]:
@@ -200,6 +206,7 @@ def simulate(
     max_step: float = np.inf,
     step: float | None = None,
     max_steps: int = 100_000,
+    sensitivities: bool = False,
 ) -> Trajectory:
     """Drive ``vehicle`` from ``x0`` with the inputs ``u[k]`` held over ``[t[k], t[k+1])``.
 
@@ -212,6 +219,11 @@ def simulate(
     ``step`` is given; the adaptive methods (``"RK45"``, ``"BDF"``, ``"Rodas5P"``,
     ``"Auto"``, ``"ImplicitEuler"``) use ``rtol``, ``atol``, ``max_step`` and land on every
     ``t[k]``. The integration runs with the GIL released.
+
+    ``sensitivities=True`` also integrates ``S = ∂x/∂(x₀, p)`` (``reckon::sensitivity``:
+    exact derivatives of the model, the derivative of the computed solution for RK45,
+    Euler and the exact flow): ``Trajectory.dy_dx0`` and ``dy_dp``. With
+    ``method="Exact"`` only the unicycle, whose flow has its exact derivative.
 
     Errors: ``reckon.InvalidInput`` (also a ``ValueError``) for wrong shapes, non-finite
     values, times that do not increase, or a non-positive wheelbase; ``reckon.NonFinite``
@@ -243,7 +255,7 @@ def simulate(
             f"interval) or ({m},) is needed, got {us.shape}"
         )
         raise InvalidInput(f"invalid u: {reason}", what="u", reason=reason)
-    out = _simulate(
+    out = (_sensitivities if sensitivities else _simulate)(
         vehicle.kind,
         vehicle._params(),
         _vector(x0, "x0"),
@@ -256,4 +268,11 @@ def simulate(
         None if step is None else float(step),
         int(max_steps),
     )
-    return Trajectory(t=out["t"], y=out["y"], method=method, stats=out["stats"])
+    if not sensitivities:
+        return Trajectory(t=out["t"], y=out["y"], method=method, stats=out["stats"])
+    sens = np.transpose(out["s"], (1, 2, 0))  # (n, n + n_p, K)
+    n = vehicle.n
+    return Trajectory(
+        t=out["t"], y=out["y"], method=method, stats=out["stats"],
+        dy_dx0=np.ascontiguousarray(sens[:, :n, :]), dy_dp=np.ascontiguousarray(sens[:, n:, :]),
+    )

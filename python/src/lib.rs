@@ -843,9 +843,11 @@ fn _reckon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(ensemble::encoder_run, m)?)?;
     m.add_function(wrap_pyfunction!(rest::vehicle_simulate, m)?)?;
     m.add_function(wrap_pyfunction!(rest::vehicle_step, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::vehicle_sensitivities, m)?)?;
     m.add_function(wrap_pyfunction!(rest::odometry, m)?)?;
     m.add_function(wrap_pyfunction!(rest::sensitivities, m)?)?;
     m.add_function(wrap_pyfunction!(rest::least_squares, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::encoder_least_squares, m)?)?;
     m.add_function(wrap_pyfunction!(rest::umbmark_fit, m)?)?;
     m.add_function(wrap_pyfunction!(rest::censi_fit, m)?)?;
     m.add_class::<ensemble::Statistics>()?;

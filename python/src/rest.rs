@@ -222,6 +222,187 @@ pub(crate) fn vehicle_simulate<'py>(
     max_steps: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let (n, m) = check_vehicle(py, kind, &params)?;
+    let (t, u) = (slice(py, &t, "t")?, slice(py, &u, "u")?);
+    check_run(py, kind, n, m, method, &x0, t, u, step)?;
+    let opts = Options::default()
+        .rtol(rtol)
+        .atol(atol)
+        .h_max(max_step)
+        .max_steps(max_steps);
+    opts.validate().map_err(|e| errors::to_py(py, &e))?;
+    let p = params.as_slice();
+    let result = with_vehicle!(py, kind, p, |sys, flow| py
+        .detach(|| simulate_n(sys, flow, &x0, t, u, m, method, opts, step)));
+    let (ts, y, stats) = result.map_err(|e| errors::to_py(py, &e))?;
+    let out = PyDict::new(py);
+    let cols = ts.len();
+    out.set_item("t", PyArray1::from_vec(py, ts))?;
+    out.set_item("y", PyArray1::from_vec(py, y).reshape([n, cols])?)?;
+    out.set_item("stats", stats_dict(py, &stats)?)?;
+    Ok(out)
+}
+
+/// A vehicle's sensitivities `S = ∂x/∂(x₀, p)` (`p`: the model's parameter block, the
+/// wheel-speed drive's `(r_l, r_r, b)`) at every `t_k`.
+#[allow(clippy::too_many_arguments)]
+fn sensitivities_n<const N: usize, S: DualSystem<Const<N>>>(
+    sys: S,
+    x0: &[f64],
+    t: &[f64],
+    u: &[f64],
+    m: usize,
+    method: &str,
+    opts: Options,
+    step: Option<f64>,
+) -> reckon::Result<Packed>
+where
+    Const<N>: LuDim,
+{
+    let k = t.len() - 1;
+    let rows: Vec<Vec<f64>> = (0..k).map(|i| u[i * m..(i + 1) * m].to_vec()).collect();
+    let controls = Controls::new(t[..k].to_vec(), rows)?;
+    let problem = Problem::new(sys, SVector::<f64, N>::from_column_slice(x0), (t[0], t[k])).controls(controls);
+    let opts = opts.save(Save::At(t.to_vec()));
+    let fixed = opts.clone().fixed(step.unwrap_or(f64::MAX));
+    let adaptive = match step {
+        Some(h) => opts.clone().fixed(h),
+        None => opts,
+    };
+    let sens = SensitivityOptions::default();
+    let sol = match method {
+        "Euler" => sensitivity::solve(&problem, Euler, &fixed, &sens),
+        "ImplicitEuler" => sensitivity::solve(&problem, ImplicitEuler::default(), &adaptive, &sens),
+        "RK45" => sensitivity::solve(&problem, Rk45, &adaptive, &sens),
+        "BDF" => sensitivity::solve(&problem, Bdf::default(), &adaptive, &sens),
+        "Rodas5P" => sensitivity::solve(&problem, Rodas5P, &adaptive, &sens),
+        "Auto" => sensitivity::solve(&problem, Auto::default(), &adaptive, &sens),
+        other => Err(reckon::Error::invalid(
+            "method",
+            format!("{other:?} has no sensitivities here"),
+        )),
+    }?;
+    Ok(pack_sensitivities(
+        &sol.t,
+        |j| sol.x[j].as_slice().to_vec(),
+        |j| sol.s(j).into_owned(),
+        sol.stats,
+    ))
+}
+
+/// `(t, y (n, K) row-major, S (K, n, m) row-major, m, stats)`.
+type Packed = (Vec<f64>, Vec<f64>, Vec<f64>, usize, reckon::model::Stats);
+
+fn pack_sensitivities(
+    t: &[f64],
+    x: impl Fn(usize) -> Vec<f64>,
+    s: impl Fn(usize) -> DMatrix<f64>,
+    stats: reckon::model::Stats,
+) -> Packed {
+    let k = t.len();
+    let (n, m) = if k == 0 { (0, 0) } else { s(0).shape() };
+    let mut y = vec![0.0; n * k];
+    let mut flat = vec![0.0; k * n * m];
+    for j in 0..k {
+        let (xj, sj) = (x(j), s(j));
+        for i in 0..n {
+            y[i * k + j] = xj[i];
+            for c in 0..m {
+                flat[(j * n + i) * m + c] = sj[(i, c)];
+            }
+        }
+    }
+    (t.to_vec(), y, flat, m, stats)
+}
+
+/// `reckon.vehicles.simulate(..., sensitivities=True)`'s native half: `t`, `y` and
+/// `s` `(K, n, n + n_p)`.
+#[pyfunction]
+#[pyo3(signature = (kind, params, x0, t, u, method, rtol, atol, max_step, step, max_steps))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn vehicle_sensitivities<'py>(
+    py: Python<'py>,
+    kind: &str,
+    params: Vec<f64>,
+    x0: Vec<f64>,
+    t: PyReadonlyArray1<'py, f64>,
+    u: PyReadonlyArray1<'py, f64>,
+    method: &str,
+    rtol: f64,
+    atol: f64,
+    max_step: f64,
+    step: Option<f64>,
+    max_steps: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (n, m) = check_vehicle(py, kind, &params)?;
+    let (t, u) = (slice(py, &t, "t")?, slice(py, &u, "u")?);
+    check_run(py, kind, n, m, method, &x0, t, u, step)?;
+    let opts = Options::default()
+        .rtol(rtol)
+        .atol(atol)
+        .h_max(max_step)
+        .max_steps(max_steps);
+    opts.validate().map_err(|e| errors::to_py(py, &e))?;
+    let p = params.as_slice();
+    let result = if method == "Exact" {
+        if kind != "unicycle" {
+            return Err(errors::invalid(
+                py,
+                "method",
+                format!(
+                    "exact sensitivities are the unicycle's flow's; for the {kind} use an integrator (method=\"RK45\", ...)"
+                ),
+            ));
+        }
+        py.detach(|| -> reckon::Result<Packed> {
+            let k = t.len() - 1;
+            let rows: Vec<Vec<f64>> = (0..k).map(|i| u[i * m..(i + 1) * m].to_vec()).collect();
+            let problem = Problem::new(
+                unicycle::model(),
+                SVector::<f64, 3>::from_column_slice(&x0),
+                (t[0], t[k]),
+            )
+            .controls(Controls::new(t[..k].to_vec(), rows)?);
+            let opts = opts.save(Save::At(t.to_vec())).fixed(step.unwrap_or(f64::MAX));
+            let sol = sensitivity::solve(
+                &problem,
+                Exact::new(unicycle::ExactFlow),
+                &opts,
+                &SensitivityOptions::default(),
+            )?;
+            Ok(pack_sensitivities(
+                &sol.t,
+                |j| sol.x[j].as_slice().to_vec(),
+                |j| sol.s(j).into_owned(),
+                sol.stats,
+            ))
+        })
+    } else {
+        with_vehicle!(py, kind, p, |sys, _flow| py
+            .detach(|| sensitivities_n(sys, &x0, t, u, m, method, opts, step)))
+    };
+    let (ts, y, s, cols, stats) = result.map_err(|e| errors::to_py(py, &e))?;
+    let k = ts.len();
+    let out = PyDict::new(py);
+    out.set_item("t", PyArray1::from_vec(py, ts))?;
+    out.set_item("y", PyArray1::from_vec(py, y).reshape([n, k])?)?;
+    out.set_item("s", PyArray1::from_vec(py, s).reshape([k, n, cols])?)?;
+    out.set_item("stats", stats_dict(py, &stats)?)?;
+    Ok(out)
+}
+
+/// The checks of a vehicle run's method, state, times and inputs.
+#[allow(clippy::too_many_arguments)]
+fn check_run(
+    py: Python<'_>,
+    kind: &str,
+    n: usize,
+    m: usize,
+    method: &str,
+    x0: &[f64],
+    t: &[f64],
+    u: &[f64],
+    step: Option<f64>,
+) -> PyResult<()> {
     if !VEHICLE_METHODS.contains(&method) {
         return Err(errors::invalid(
             py,
@@ -229,7 +410,6 @@ pub(crate) fn vehicle_simulate<'py>(
             format!("{method:?} is not one of {}", VEHICLE_METHODS.join(", ")),
         ));
     }
-    let (t, u) = (slice(py, &t, "t")?, slice(py, &u, "u")?);
     if t.len() < 2 {
         return Err(errors::invalid(
             py,
@@ -251,7 +431,7 @@ pub(crate) fn vehicle_simulate<'py>(
             format!("{} values for {} intervals of {m} inputs", u.len(), t.len() - 1),
         ));
     }
-    finite(py, &x0, "x0")?;
+    finite(py, x0, "x0")?;
     finite(py, t, "t")?;
     if let Some(k) = (1..t.len()).find(|&k| t[k] <= t[k - 1]) {
         return Err(errors::invalid(
@@ -264,22 +444,7 @@ pub(crate) fn vehicle_simulate<'py>(
     if let Some(h) = step {
         positive(py, h, "step")?;
     }
-    let opts = Options::default()
-        .rtol(rtol)
-        .atol(atol)
-        .h_max(max_step)
-        .max_steps(max_steps);
-    opts.validate().map_err(|e| errors::to_py(py, &e))?;
-    let p = params.as_slice();
-    let result = with_vehicle!(py, kind, p, |sys, flow| py
-        .detach(|| simulate_n(sys, flow, &x0, t, u, m, method, opts, step)));
-    let (ts, y, stats) = result.map_err(|e| errors::to_py(py, &e))?;
-    let out = PyDict::new(py);
-    let cols = ts.len();
-    out.set_item("t", PyArray1::from_vec(py, ts))?;
-    out.set_item("y", PyArray1::from_vec(py, y).reshape([n, cols])?)?;
-    out.set_item("stats", stats_dict(py, &stats)?)?;
-    Ok(out)
+    Ok(())
 }
 
 /// One step of a vehicle's exact flow, or its right-hand side (`h = None`).
@@ -800,5 +965,67 @@ pub(crate) fn censi_fit<'py>(
     d.set_item("kept", fit.kept)?;
     d.set_item("sigma2_theta", fit.sigma2_theta)?;
     d.set_item("sigma2_xy", fit.sigma2_xy)?;
+    Ok(d)
+}
+
+/// `lsq::fit_encoder_log`: a differential drive's wheel radii and wheelbase from encoder
+/// increments `(t, left, right)` and measured poses (`poses` flat `(3, K)` row-major).
+#[pyfunction]
+#[pyo3(signature = (t, left, right, pose_t, poses, wheel_diameter, wheel_separation, pulses_per_rev, sigma))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn encoder_least_squares<'py>(
+    py: Python<'py>,
+    t: PyReadonlyArray1<'py, f64>,
+    left: PyReadonlyArray1<'py, f64>,
+    right: PyReadonlyArray1<'py, f64>,
+    pose_t: PyReadonlyArray1<'py, f64>,
+    poses: PyReadonlyArray1<'py, f64>,
+    wheel_diameter: f64,
+    wheel_separation: f64,
+    pulses_per_rev: f64,
+    sigma: [f64; 3],
+) -> PyResult<Bound<'py, PyDict>> {
+    let robot = DiffDrive::new(wheel_diameter, wheel_separation, pulses_per_rev).map_err(|e| errors::to_py(py, &e))?;
+    let (t, l, r) = (
+        slice(py, &t, "t")?,
+        slice(py, &left, "left")?,
+        slice(py, &right, "right")?,
+    );
+    let (pt, ps) = (slice(py, &pose_t, "pose_t")?, slice(py, &poses, "poses")?);
+    if l.len() != t.len() || r.len() != t.len() {
+        return Err(errors::invalid(
+            py,
+            "samples",
+            format!(
+                "t, left and right need the same length, got {}, {}, {}",
+                t.len(),
+                l.len(),
+                r.len()
+            ),
+        ));
+    }
+    if ps.len() != 3 * pt.len() {
+        return Err(errors::invalid(
+            py,
+            "poses",
+            format!("shape (3, {}) is needed, got {} values", pt.len(), ps.len()),
+        ));
+    }
+    finite(py, t, "t")?;
+    finite(py, l, "left")?;
+    finite(py, r, "right")?;
+    finite(py, pt, "pose_t")?;
+    finite(py, ps, "poses")?;
+    let k = pt.len();
+    let samples: Vec<(f64, f64, f64)> = (0..t.len()).map(|i| (t[i], l[i], r[i])).collect();
+    let measured: Vec<(f64, Vector3<f64>)> = (0..k)
+        .map(|j| (pt[j], Vector3::new(ps[j], ps[k + j], ps[2 * k + j])))
+        .collect();
+    let fit = py
+        .detach(|| lsq::fit_encoder_log(&samples, &robot, &measured, sigma))
+        .map_err(|e| errors::to_py(py, &e))?;
+    let d = estimate_dict(py, &fit.estimate)?;
+    d.set_item("iterations", fit.iterations)?;
+    d.set_item("condition", fit.condition)?;
     Ok(d)
 }

@@ -141,6 +141,35 @@ def test_least_squares_bad_input():
         calibration.least_squares(lambda t, y, a, b: -(a + b) * y, t, np.exp(-t), [0.5, 0.4], [1.0])
 
 
+def test_encoder_least_squares_recovers_the_geometry():
+    from reckon import vehicles
+
+    truth = np.array([0.0502, 0.0497, 0.412])  # r_l, r_r, b
+    n_pulses = 1000.0
+    t = np.linspace(0.0, 20.0, 401)
+    dt = np.diff(t)
+    rng = np.random.default_rng(2)
+    speeds = np.c_[8 + 4 * np.sin(0.3 * t[:-1]), 8 + 4 * np.cos(0.2 * t[:-1])] + rng.uniform(-1, 1, (400, 2))
+    ticks = speeds * dt[:, None] * n_pulses / (2 * np.pi)  # increments over (t[k-1], t[k]]
+    left = np.r_[0.0, ticks[:, 0]]
+    right = np.r_[0.0, ticks[:, 1]]
+    pose_t = t[::20]
+    truth_path = vehicles.simulate(vehicles.DiffDrive(*truth), [0.0, 0.0, 0.0], t, speeds)
+    poses = truth_path.y[:, ::20]
+    fit = calibration.encoder_least_squares(t, left, right, pose_t, poses, wheel_diameter=0.1,
+                                            wheel_separation=0.4, pulses_per_rev=n_pulses,
+                                            sigma=(1e-3, 1e-3, 1e-3))
+    assert np.max(np.abs(fit.params - truth) / truth) < 1e-6
+    assert len(fit.names) == 3 and fit.dof == 3 * 20 - 3
+    with pytest.raises(reckon.InvalidInput, match="poses"):
+        calibration.encoder_least_squares(t, left, right, pose_t, poses[:2], wheel_diameter=0.1,
+                                          wheel_separation=0.4, pulses_per_rev=n_pulses)
+    with pytest.raises(reckon.InvalidInput) as e:
+        calibration.encoder_least_squares(t, left, right, pose_t, poses, wheel_diameter=0.1,
+                                          wheel_separation=0.0, pulses_per_rev=n_pulses)
+    assert e.value.what == "wheel_separation"
+
+
 def umbmark_runs(alpha, beta, side, n, noise, rng):
     """Return errors of the first-order model: x_cw = y_cw = −2L(α + β), x_ccw = −y_ccw = 2L(β − α)."""
     cw = np.tile([-2 * side * (alpha + beta), -2 * side * (alpha + beta)], (n, 1))

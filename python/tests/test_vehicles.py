@@ -93,6 +93,54 @@ def test_body3d_and_diffdrive():
     assert np.max(np.abs(a.y - b2.y)) < 1e-15
 
 
+def test_unicycle_sensitivities_rotate_about_the_start():
+    # θ₀ turns the whole path about its start: ∂x/∂θ₀ = −(y − y₀), ∂y/∂θ₀ = x − x₀
+    rng = np.random.default_rng(5)
+    t = np.cumsum(np.r_[0.0, rng.uniform(0.2, 1.0, 12)])
+    u = np.c_[rng.uniform(0.5, 2, 12), rng.uniform(-1, 1, 12)]
+    x0 = np.array([1.0, -2.0, 0.3])
+    for method, tol in (("Exact", 1e-13), ("RK45", 1e-7)):
+        r = vehicles.simulate(vehicles.Unicycle(), x0, t, u, method=method, sensitivities=True,
+                              rtol=1e-10, atol=1e-12)
+        assert r.dy_dx0.shape == (3, 3, len(t)) and r.dy_dp.shape == (3, 0, len(t))
+        want = np.zeros((3, 3, len(t)))
+        want[0, 0] = want[1, 1] = want[2, 2] = 1.0
+        want[0, 2] = -(r.y[1] - x0[1])
+        want[1, 2] = r.y[0] - x0[0]
+        assert np.max(np.abs(r.dy_dx0 - want)) < tol, method
+    with pytest.raises(reckon.InvalidInput, match="unicycle"):
+        vehicles.simulate(vehicles.Bicycle(0.5), x0, t, np.c_[u[:, 0], 0.1 * u[:, 1]], sensitivities=True)
+
+
+def test_diffdrive_parameter_sensitivities_against_central_differences():
+    t = np.array([0.0, 1.0, 2.5, 4.0])
+    w = np.array([[10.0, 12.0], [-3.0, 8.0], [6.0, 6.0]])
+    p = np.array([0.05, 0.06, 0.4])
+    r = vehicles.simulate(vehicles.DiffDrive(*p), [0, 0, 0.1], t, w, method="RK45", sensitivities=True,
+                          rtol=1e-11, atol=1e-13)
+    assert r.dy_dp.shape == (3, 3, 4)
+    for j in range(3):
+        h = 1e-6 * p[j]
+        up, down = p.copy(), p.copy()
+        up[j] += h
+        down[j] -= h
+        fd = (vehicles.simulate(vehicles.DiffDrive(*up), [0, 0, 0.1], t, w).y
+              - vehicles.simulate(vehicles.DiffDrive(*down), [0, 0, 0.1], t, w).y) / (2 * h)
+        assert np.max(np.abs(r.dy_dp[:, j, :] - fd)) < 1e-6 * np.max(np.abs(fd)), j
+
+
+def test_threads_give_the_same_answers():
+    from concurrent.futures import ThreadPoolExecutor
+
+    t = np.linspace(0, 100, 2001)
+    u = np.c_[np.ones(2000), np.sin(t[:-1])]
+    one = vehicles.simulate(vehicles.Unicycle(), [0, 0, 0], t, u, method="RK45").y
+    with ThreadPoolExecutor(4) as pool:
+        runs = list(pool.map(lambda _: vehicles.simulate(vehicles.Unicycle(), [0, 0, 0], t, u, method="RK45").y,
+                             range(8)))
+    assert all(np.array_equal(one, r) for r in runs)
+
+
 def test_simulate_bad_input():
     u = vehicles.Unicycle()
     with pytest.raises(reckon.InvalidInput, match="u"):

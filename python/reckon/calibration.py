@@ -114,6 +114,8 @@ def least_squares(
     comps = list(range(n)) if components is None else [int(c) for c in components]
     if any(c < 0 or c >= n for c in comps) or not comps:
         raise _invalid("components", f"indices into a state of {n} components are needed, got {comps}")
+    if any(int(a) not in comps for a in angles):
+        raise _invalid("angles", f"the angles must be observed components {comps}, got {list(angles)}")
     ts = _floats(t_obs, "t_obs")
     try:
         yo = np.asarray(y_obs, dtype=float)

@@ -215,10 +215,10 @@ def simulate(
     :class:`Trajectory` whose ``y`` has shape ``(n, len(t))``: the state at every ``t[k]``.
 
     ``method="Exact"`` steps the vehicle's exact flow once per interval (``step=h``: steps of
-    at most ``h``), exact to rounding; ``"Euler"`` takes one step per interval unless
-    ``step`` is given; the adaptive methods (``"RK45"``, ``"BDF"``, ``"Rodas5P"``,
-    ``"Auto"``, ``"ImplicitEuler"``) use ``rtol``, ``atol``, ``max_step`` and land on every
-    ``t[k]``. The integration runs with the GIL released.
+    at most ``h``), exact to rounding; ``"Euler"`` and ``"ImplicitEuler"`` take one step
+    per interval unless ``step`` is given (as ``reckon simulate``); the adaptive methods
+    (``"RK45"``, ``"BDF"``, ``"Rodas5P"``, ``"Auto"``) use ``rtol``, ``atol``, ``max_step``
+    and land on every ``t[k]``. The integration runs with the GIL released.
 
     ``sensitivities=True`` also integrates ``S = ∂x/∂(x₀, p)`` (``reckon::sensitivity``:
     exact derivatives of the model, the derivative of the computed solution for RK45,

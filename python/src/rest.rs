@@ -161,7 +161,7 @@ where
     match method {
         "Exact" => problem.solve(Exact::new(flow), &fixed),
         "Euler" => problem.solve(Euler, &fixed),
-        "ImplicitEuler" => problem.solve(ImplicitEuler::default(), &adaptive),
+        "ImplicitEuler" => problem.solve(ImplicitEuler::default(), &fixed),
         "RK45" => problem.solve(Rk45, &adaptive),
         "BDF" => problem.solve(Bdf::default(), &adaptive),
         "Rodas5P" => problem.solve(Rodas5P, &adaptive),
@@ -271,7 +271,7 @@ where
     let sens = SensitivityOptions::default();
     let sol = match method {
         "Euler" => sensitivity::solve(&problem, Euler, &fixed, &sens),
-        "ImplicitEuler" => sensitivity::solve(&problem, ImplicitEuler::default(), &adaptive, &sens),
+        "ImplicitEuler" => sensitivity::solve(&problem, ImplicitEuler::default(), &fixed, &sens),
         "RK45" => sensitivity::solve(&problem, Rk45, &adaptive, &sens),
         "BDF" => sensitivity::solve(&problem, Bdf::default(), &adaptive, &sens),
         "Rodas5P" => sensitivity::solve(&problem, Rodas5P, &adaptive, &sens),

@@ -134,6 +134,8 @@ def test_least_squares_bad_input():
         calibration.least_squares(f, t[::-1], np.ones(4), [1.0], [1.0])
     with pytest.raises(reckon.InvalidInput, match="components"):
         calibration.least_squares(f, t, np.ones(4), [1.0], [1.0], components=[1])
+    with pytest.raises(reckon.InvalidInput, match="angles"):
+        calibration.least_squares(f, t, np.ones(4), [1.0], [1.0], angles=[3])
     with pytest.raises(reckon.InvalidInput, match="p0"):
         calibration.least_squares(lambda t, y: -y, t, np.ones(4), [], [1.0])
     # data that cannot tell a parameter: y' = −(a + b)·y

@@ -49,6 +49,16 @@ def test_unicycle_piecewise_inputs_compose_arcs():
     for k in range(30):
         want.append(arc(want[-1], u[k, 0], u[k, 1], t[k + 1] - t[k]))
     assert np.max(np.abs(r.y - np.array(want).T)) < 1e-12
+    # implicit Euler, one step per interval: x₁ = x₀ + h·f(x₁), θ₁ = θ₀ + hω exactly
+    # (a step whose simplified Newton iteration does not converge is halved)
+    ie = vehicles.simulate(vehicles.Unicycle(), x0, t, u, method="ImplicitEuler")
+    assert ie.stats["accepted"] >= 30
+    th = x0[2] + np.r_[0.0, np.cumsum(u[:, 1] * np.diff(t))]
+    assert np.max(np.abs(ie.y[2] - th)) < 1e-13
+    one = vehicles.simulate(vehicles.Unicycle(), x0, [0.0, 0.5], [1.5, 0.8], method="ImplicitEuler")
+    assert one.stats["accepted"] == 1
+    th1 = x0[2] + 0.4
+    assert np.max(np.abs(one.y[:, 1] - [*(x0[:2] + 0.75 * np.array([math.cos(th1), math.sin(th1)])), th1])) < 1e-15
     # Euler with one step per interval: the start heading held (first order)
     e = vehicles.simulate(vehicles.Unicycle(), x0, t[:2], u[:1], method="Euler")
     h = t[1] - t[0]

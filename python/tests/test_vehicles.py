@@ -237,3 +237,26 @@ def test_the_docstring_examples():
     for test in f:
         runner.run(test)
     assert runner.failures == 0 and runner.tries >= 3
+
+
+def test_the_gil_is_released_while_simulate_runs():
+    import threading
+    import time
+
+    n = 500_000  # about a second of native work
+    t = np.linspace(0, 5000, n + 1)
+    u = np.c_[np.ones(n), 0.1 * np.sin(t[:-1])]
+    done = []
+    worker = threading.Thread(target=lambda: done.append(vehicles.simulate(vehicles.CarLike(), [0, 0, 0, 0], t, u)))
+    start = time.perf_counter()
+    worker.start()
+    last, gap = time.perf_counter(), 0.0
+    while worker.is_alive():  # this thread keeps running Python while the other integrates
+        now = time.perf_counter()
+        gap, last = max(gap, now - last), now
+        time.sleep(0.001)
+    worker.join()
+    total = time.perf_counter() - start
+    assert done and done[0].y.shape == (4, n + 1)
+    # with the GIL held, this loop would stall for the whole run
+    assert total > 0.3 and gap < 0.5 * total, (gap, total)

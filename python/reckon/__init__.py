@@ -421,6 +421,7 @@ def odometry(
             reason = f"a 1-d array is needed, got shape {a.shape}"
             raise InvalidInput(f"invalid {what}: {reason}", what=what, reason=reason)
         arrays.append(a)
+    ts, ls, rs = arrays
     return _odometry(
-        *arrays, float(wheel_diameter), float(wheel_separation), float(pulses_per_rev), str(update)
+        ts, ls, rs, float(wheel_diameter), float(wheel_separation), float(pulses_per_rev), str(update)
     )

@@ -18,7 +18,7 @@ __all__ = ["sensitivities", "SensitivityResult"]
 _METHODS = ("RK45", "BDF", "Rodas5P", "Auto", "ImplicitEuler", "Euler")
 
 
-def _invalid(what: str, reason: str) -> InvalidInput:
+def _invalid(what: str, reason: str) -> Exception:
     return InvalidInput(f"invalid {what}: {reason}", what=what, reason=reason)
 
 
@@ -122,9 +122,10 @@ def sensitivities(
         raise _invalid("method", f"{method!r} is not one of {', '.join(_METHODS)}")
     if wrt not in ("all", "params"):
         raise _invalid("wrt", f"{wrt!r} is not 'all' or 'params'")
-    t0, t1 = _floats(t_span, "t_span") if len(t_span) == 2 else (None, None)
-    if t0 is None:
+    span = _floats(t_span, "t_span")
+    if len(span) != 2:
         raise _invalid("t_span", "two times (t0, t1) are needed")
+    t0, t1 = span
     y = _floats(y0, "y0")
     p = _floats(params, "params")
     if not y:

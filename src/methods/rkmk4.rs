@@ -32,6 +32,14 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 /// twist interpolate well. The rotations of each result get one polar step
 /// ([`Layout::project`]) against rounding.
 ///
+/// Measured on a tumbling rigid body (`tests/it/lie_integrators.rs`, `h = 10⁻³`):
+/// after 10⁶ steps `‖RᵀR − I‖_max = 1.1·10⁻¹⁶`, where RK45 on the nine entries over the
+/// same `t = 1000` drifts to `2.2·10⁻⁴` at `rtol = 10⁻⁶` and `1.1·10⁻⁷` at `10⁻¹⁰`. The
+/// price is the group operations (`benches/lie.rs`, free symmetric top to `t = 20`): at
+/// matched accuracy (error `9.3·10⁻⁸` against RK45's `1.1·10⁻⁷` at `rtol = 10⁻⁸`)
+/// RKMK4 takes 1126 `f` calls to RK45's 1316 but about 8× its time (0.84 µs a step
+/// against RK45's 0.11 µs), the exponentials and `dexp⁻¹` costing ~70 ns each.
+///
 /// ```
 /// use reckon::{methods::Rkmk4, vehicles::rigid_body, lie::So3, Options, Problem};
 /// use nalgebra::vector;

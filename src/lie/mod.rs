@@ -21,14 +21,17 @@
 //! the truncation error is below 10⁻¹⁶ relative.
 //!
 //! Uncertainty on these groups (a Gaussian in the right tangent space, its prediction,
-//! correction and NEES) is [`crate::kalman::manifold`]. Not here yet (issue 37):
-//! Lie-group integrators (Lie–Euler, RKMK4, commutator-free order 4) through the driver,
-//! benches.
+//! correction and NEES) is [`crate::kalman::manifold`]. A state vector as an element of
+//! a product of these groups with `ℝⁿ`, for the Lie-group integrators
+//! ([`crate::methods::LieEuler`], [`crate::methods::Rkmk4`], [`crate::methods::Cf4`]),
+//! is [`layout`].
 
+pub mod layout;
 pub mod se2;
 pub mod se3;
 pub mod so3;
 
+pub use layout::{Block, Layout, Side};
 pub use se2::Se2;
 pub use se3::Se3;
 pub use so3::{So3, hat, vee};

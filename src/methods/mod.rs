@@ -16,6 +16,7 @@ use nalgebra::{DefaultAllocator, Dim, OVector};
 
 pub mod auto;
 pub mod bdf;
+pub mod cf4;
 pub(crate) mod consistent;
 mod dense;
 pub mod euler;
@@ -23,19 +24,24 @@ pub mod exact;
 pub mod exponential_euler;
 pub mod implicit_euler;
 pub(crate) mod iteration;
+pub mod lie_euler;
 pub(crate) mod newton;
 pub mod rk45;
+pub mod rkmk4;
 pub mod rodas5p;
 #[doc(hidden)]
 pub mod step_size;
 
 pub use auto::Auto;
 pub use bdf::Bdf;
+pub use cf4::Cf4;
 pub use euler::Euler;
 pub use exact::Exact;
 pub use exponential_euler::ExponentialEuler;
 pub use implicit_euler::{ImplicitEuler, NewtonOptions};
+pub use lie_euler::LieEuler;
 pub use rk45::Rk45;
+pub use rkmk4::Rkmk4;
 pub use rodas5p::Rodas5P;
 
 /// What one step attempt produced.

@@ -4,7 +4,9 @@
 //! units; θ is integrated unwrapped and wrapped only for display.
 pub mod bicycle;
 pub mod body3d;
+pub mod body_se3;
 pub mod carlike;
+pub mod rigid_body;
 pub mod unicycle;
 
 /// Wrap an angle to `(−π, π]` for display (integration keeps θ unwrapped).

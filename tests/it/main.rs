@@ -27,6 +27,7 @@ mod jacobian;
 mod kalman;
 mod layers;
 mod lie;
+mod lie_integrators;
 mod literals;
 mod lsq;
 mod lti;

@@ -22,7 +22,7 @@ import numpy as np
 from . import _errors
 from ._errors import *  # noqa: F401,F403  (the exception hierarchy under reckon.Error)
 from ._errors import __all__ as _error_names
-from ._ensemble import EncoderEnsemble, Statistics, _statistics_from_json  # noqa: F401
+from ._ensemble import EncoderEnsemble, Ensemble, Statistics, _statistics_from_json  # noqa: F401
 from ._reckon import DenseOutput, Model, Symbol
 from ._reckon import solve as _solve
 from ._reckon import solve_traced as _solve_traced
@@ -39,7 +39,7 @@ _FUNCTIONS = (
 )
 
 __all__ = [
-    "solve_ivp", "OdeResult", "DenseOutput", "Model", "Symbol", "METHODS", "EncoderEnsemble",
+    "solve_ivp", "OdeResult", "DenseOutput", "Model", "Symbol", "METHODS", "EncoderEnsemble", "Ensemble",
     "Statistics", "sensitivities", "SensitivityResult", "odometry", "vehicles", "calibration",
     *_FUNCTIONS,
     "arctan2", "hypot", *_error_names,

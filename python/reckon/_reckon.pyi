@@ -154,6 +154,26 @@ def encoder_plan(spec: tuple[Any, ...]) -> tuple[str, list[float], float]: ...
 def encoder_run(
     spec: tuple[Any, ...], members: int, seed: int, shard: tuple[int, int], threads: int | None
 ) -> Statistics: ...
+def model_run(
+    model: Model,
+    n: int,
+    mean: Sequence[float],
+    factor: Sequence[float],
+    t0: float,
+    t1: float,
+    times: Sequence[float],
+    method: str,
+    rtol: Sequence[float],
+    atol: Sequence[float],
+    first_step: float | None,
+    max_step: float,
+    max_steps: int | None,
+    members: int,
+    seed: int,
+    shard: tuple[int, int],
+    threads: int | None,
+    job: str,
+) -> Statistics: ...
 
 # src/rest.rs: vehicles, odometry, sensitivities, calibration (wrapped by reckon.vehicles,
 # reckon.odometry, reckon.sensitivities and reckon.calibration)

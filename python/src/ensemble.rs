@@ -11,8 +11,13 @@ use crate::errors;
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::{PyIndexError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use rand_distr::{Distribution, StandardNormal};
+use reckon::Problem;
 use reckon::ensemble::encoder::EncoderEnsemble;
-use reckon::ensemble::{Ensemble, Shard, Statistics as Stats};
+use reckon::ensemble::{Ensemble, Layout, Shard, Statistics as Stats};
+use reckon::linalg::LuDim;
+use reckon::nalgebra::allocator::Allocator;
+use reckon::nalgebra::{Const, DefaultAllocator, Dyn, OVector};
 use reckon::reckoning::encoder_sim::{Command, EncoderErrors};
 use reckon::reckoning::encoders::{DiffDrive, Update};
 
@@ -330,5 +335,167 @@ impl Statistics {
             s.layout.times.len(),
             s.layout.names
         )
+    }
+}
+
+/// Members of a traced-model ensemble one call may integrate in all, times the saved
+/// times: the rows the statistics take (10¹¹, hours of work). More is refused up front.
+const MAX_RUN_ROWS: f64 = 1e11;
+
+/// Run shard `shard = (K, N)` of `members` members of the traced `model` (state `z` of
+/// `mean.len()` components, the first `n` reported) from master seed `seed`, on
+/// `threads` threads (`None`: one per core) with the GIL released. Member `i` starts at
+/// `z₀ = mean + F·ξ`, `F` the row-major `factor` (`F·Fᵀ` the covariance) and `ξ` the
+/// first `mean.len()` standard normals of its generator, and is integrated from `t0` to
+/// `t1` by `method`, saved at `times`; its rows are `z(tₖ)[..n]`.
+#[pyfunction]
+#[pyo3(signature = (model, n, mean, factor, t0, t1, times, method, rtol, atol, first_step, max_step, max_steps, members, seed, shard, threads, job))]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn model_run(
+    py: Python<'_>,
+    model: Bound<'_, crate::traced::Model>,
+    n: usize,
+    mean: Vec<f64>,
+    factor: Vec<f64>,
+    t0: f64,
+    t1: f64,
+    times: Vec<f64>,
+    method: &str,
+    rtol: Vec<f64>,
+    atol: Vec<f64>,
+    first_step: Option<f64>,
+    max_step: f64,
+    max_steps: Option<usize>,
+    members: u64,
+    seed: u64,
+    shard: (u64, u64),
+    threads: Option<usize>,
+    job: String,
+) -> PyResult<Statistics> {
+    let m = model.get();
+    let big = mean.len();
+    let check = || -> reckon::Result<()> {
+        if big != m.n || n == 0 || n > big || factor.len() != big * big {
+            return Err(reckon::Error::invalid(
+                "ensemble",
+                format!(
+                    "{big} initial values, {} factor entries and {n} reported states for a model of {} states",
+                    factor.len(),
+                    m.n
+                ),
+            ));
+        }
+        if let Some(v) = mean.iter().chain(&factor).find(|v| !v.is_finite()) {
+            return Err(reckon::Error::invalid(
+                "ensemble",
+                format!("{v} in the mean or covariance factor"),
+            ));
+        }
+        if members == 0 {
+            return Err(reckon::Error::invalid(
+                "members",
+                "0: an ensemble needs at least one member",
+            ));
+        }
+        let shard = Shard::new(shard.0, shard.1)?;
+        let rows = shard.len(members) as f64 * times.len() as f64;
+        if rows > MAX_RUN_ROWS {
+            return Err(reckon::Error::invalid(
+                "members",
+                format!(
+                    "{} members of shard {}/{} × {} saved times = {rows:e} rows in one call; at most {MAX_RUN_ROWS:e} (use more shards)",
+                    shard.len(members),
+                    shard.index,
+                    shard.count,
+                    times.len()
+                ),
+            ));
+        }
+        Ok(())
+    };
+    check().map_err(|e| errors::to_py(py, &e))?;
+    let opts = crate::options(
+        py,
+        method,
+        rtol,
+        atol,
+        first_step,
+        max_step,
+        None,
+        Some(times.clone()),
+        false,
+        max_steps,
+    )?;
+    let layout = Layout::new(times, (0..n).map(|i| format!("y{i}")).collect(), n).map_err(|e| errors::to_py(py, &e))?;
+    let mut runner = Ensemble::new(members, seed)
+        .shard(Shard::new(shard.0, shard.1).map_err(|e| errors::to_py(py, &e))?)
+        .job(job);
+    runner.threads = threads;
+    let plan = Plan {
+        model: m,
+        n,
+        mean: &mean,
+        factor: &factor,
+        span: (t0, t1),
+        method,
+        opts: &opts,
+    };
+    // small models on fixed-size states, as `solve_traced` (stack vectors, a stack LU)
+    macro_rules! fixed {
+        ($($k:literal)*) => {
+            match big {
+                $($k => py.detach(|| plan.run::<Const<$k>>(&runner, &layout)),)*
+                _ => py.detach(|| plan.run::<Dyn>(&runner, &layout)),
+            }
+        };
+    }
+    fixed!(1 2 3 4 5 6 7 8)
+        .map(|inner| Statistics { inner })
+        .map_err(|e| errors::to_py(py, &e))
+}
+
+/// One traced-model ensemble: what every member shares.
+struct Plan<'a> {
+    model: &'a crate::traced::Model,
+    n: usize,
+    mean: &'a [f64],
+    factor: &'a [f64],
+    span: (f64, f64),
+    method: &'a str,
+    opts: &'a reckon::Options,
+}
+
+impl Plan<'_> {
+    fn run<D: LuDim>(&self, runner: &Ensemble, layout: &Layout) -> reckon::Result<Stats>
+    where
+        DefaultAllocator: Allocator<D> + Allocator<D, D>,
+    {
+        let big = self.mean.len();
+        let n = self.n;
+        runner.run(layout, |member, rows| {
+            let xi: Vec<f64> = (0..big).map(|_| StandardNormal.sample(member.rng())).collect();
+            let z0 = (0..big).map(|i| {
+                let row = &self.factor[i * big..(i + 1) * big];
+                row.iter().zip(&xi).fold(self.mean[i], |acc, (f, x)| acc + f * x)
+            });
+            let sys = crate::traced::TracedSystem::new(self.model);
+            let x0 = OVector::<f64, D>::from_iterator_generic(D::from_usize(big), Const::<1>, z0);
+            let sol = crate::run(Problem::new(&sys, x0, self.span), self.method, self.opts)?;
+            if sol.t != layout.times {
+                return Err(reckon::Error::invalid(
+                    "member solution",
+                    format!(
+                        "saved at {} times, not at the {} of t_eval (stopped at t = {})",
+                        sol.t.len(),
+                        layout.times.len(),
+                        sol.t.last().copied().unwrap_or(self.span.0)
+                    ),
+                ));
+            }
+            for (row, x) in rows.chunks_exact_mut(n).zip(&sol.x) {
+                row.copy_from_slice(&x.as_slice()[..n]);
+            }
+            Ok(())
+        })
     }
 }

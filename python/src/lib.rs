@@ -882,6 +882,7 @@ fn _reckon(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_rust_reference, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble::encoder_plan, m)?)?;
     m.add_function(wrap_pyfunction!(ensemble::encoder_run, m)?)?;
+    m.add_function(wrap_pyfunction!(ensemble::model_run, m)?)?;
     m.add_function(wrap_pyfunction!(rest::vehicle_simulate, m)?)?;
     m.add_function(wrap_pyfunction!(rest::vehicle_step, m)?)?;
     m.add_function(wrap_pyfunction!(rest::vehicle_sensitivities, m)?)?;

@@ -63,7 +63,7 @@ fn cases() -> Vec<Case> {
 fn run(cases: &[Case]) -> f64 {
     let mut sum = 0.0;
     for c in cases {
-        let mut pim = Preintegrated::new(c.params.clone(), c.bias);
+        let mut pim = Preintegrated::new(c.params, c.bias);
         for (w, a, dt) in &c.samples {
             pim.integrate(w, a, *dt).unwrap();
         }

@@ -23,7 +23,8 @@ where
         /// The problem's mass matrix, dense (`M = a·mass + b·J`); `None`: `a·I + b·J`.
         mass: Option<OMatrix<f64, D, D>>,
     },
-    /// `J` sparse; a mass matrix, diagonal, is `mass_diag` (`M = a·diag + b·J`).
+    /// `J` sparse; a diagonal or sparse mass matrix is `mass` (`M = a·mass + b·J`, on the
+    /// union of the two patterns and the diagonal).
     Sparse(Box<SparseMatrix>),
     /// `J = [[A, 0], [L, blockdiag(A, …, A)]]` ([`System::jacobian_blocks`]): `M`'s
     /// diagonal blocks are all `a·I + b·A`, factored once (`b_n × b_n`), and
@@ -37,7 +38,8 @@ where
     },
 }
 
-/// `J`'s values in its pattern, `M`'s in `J ∪ diag`, the map between them and the LU.
+/// `J`'s values in its pattern, `M`'s in `J ∪ diag ∪ mass`, the maps between them and
+/// the LU (analysed once, on the union).
 pub(crate) struct SparseMatrix {
     pattern: Pattern,
     j: Vec<f64>,
@@ -50,13 +52,29 @@ pub(crate) struct SparseMatrix {
     /// `‖J‖∞` of the current `J` (computed with it: O(nnz)) and the row sums it uses.
     norm: f64,
     rows: Vec<f64>,
-    /// A diagonal mass matrix (`None`: the identity).
-    mass_diag: Option<Vec<f64>>,
+    /// The mass matrix's values and their positions in `m` (`None`: the identity).
+    mass: Option<(Vec<f64>, Vec<usize>)>,
 }
 
 impl SparseMatrix {
-    fn new(pattern: Pattern) -> Option<Self> {
-        let mp = pattern.with_diagonal();
+    /// `mass`: the mass matrix's `(row, column, value)` entries.
+    fn new(pattern: Pattern, mass: Option<Vec<(usize, usize, f64)>>) -> Option<Self> {
+        let mp = match &mass {
+            None => pattern.with_diagonal(),
+            Some(e) => {
+                let mut all: Vec<(usize, usize)> = pattern.entries().collect();
+                all.extend((0..pattern.n()).map(|i| (i, i)));
+                all.extend(e.iter().map(|&(i, j, _)| (i, j)));
+                Pattern::from_valid_entries(pattern.n(), &all)
+            }
+        };
+        let mass = mass.map(|e| {
+            let at = e
+                .iter()
+                .map(|&(i, j, _)| mp.position(i, j).expect("the mass's pattern is inside M's"))
+                .collect();
+            (e.into_iter().map(|t| t.2).collect(), at)
+        });
         let to_m: Vec<usize> = pattern
             .entries()
             .map(|(i, j)| mp.position(i, j).expect("J's pattern is inside M's"))
@@ -72,7 +90,7 @@ impl SparseMatrix {
             rows: vec![0.0; pattern.n()],
             pattern,
             norm: f64::NAN,
-            mass_diag: None,
+            mass,
         })
     }
 }
@@ -85,32 +103,24 @@ where
     pub fn new<S: System<D>>(f: &mut Eval<'_, D, S>, x0: &OVector<f64, D>) -> Result<Self> {
         let mass = f.mass;
         if let Some(p) = f.sparse_pattern(x0.len())? {
-            let mut s = SparseMatrix::new(p).ok_or_else(|| {
-                crate::Error::invalid("linear_solver", "faer's sparse LU could not analyse the pattern")
-            })?;
-            if let Some(m) = mass {
-                let d = m.as_diagonal().ok_or_else(|| {
+            let entries = match mass {
+                None => None,
+                Some(m) => Some(m.sparse_entries().ok_or_else(|| {
                     crate::Error::invalid(
                         "mass",
-                        "a dense mass matrix takes the dense linear solver: give Mass::diagonal, or LinearSolver::Dense",
+                        "a dense mass matrix takes the dense linear solver: give Mass::sparse or Mass::diagonal, or LinearSolver::Dense",
                     )
-                })?;
-                s.mass_diag = Some(d.to_vec());
-            }
+                })?),
+            };
+            let s = SparseMatrix::new(p, entries).ok_or_else(|| {
+                crate::Error::invalid("linear_solver", "faer's sparse LU could not analyse the pattern")
+            })?;
             return Ok(IterationMatrix::Sparse(Box::new(s)));
         }
         let (r, _) = x0.shape_generic();
         if let Some(m) = mass {
             let mut md = OMatrix::<f64, D, D>::zeros_generic(r, r);
-            match (m.as_diagonal(), m.as_dense()) {
-                (Some(d), _) => {
-                    for (i, &v) in d.iter().enumerate() {
-                        md[(i, i)] = v;
-                    }
-                }
-                (None, Some(dm)) => md.copy_from_slice(dm.as_slice()),
-                (None, None) => unreachable!("a mass is diagonal or dense"),
-            }
+            m.write_dense(md.as_mut_slice());
             return Ok(IterationMatrix::Dense {
                 j: OMatrix::<f64, D, D>::zeros_generic(r, r),
                 m: OMatrix::<f64, D, D>::zeros_generic(r, r),
@@ -200,10 +210,10 @@ where
                 for (k, &v) in s.j.iter().enumerate() {
                     s.m[s.to_m[k]] = b * v;
                 }
-                match &s.mass_diag {
-                    Some(md) => {
-                        for (&d, &mi) in s.diag.iter().zip(md) {
-                            s.m[d] += a * mi;
+                match &s.mass {
+                    Some((values, at)) => {
+                        for (&k, &mi) in at.iter().zip(values) {
+                            s.m[k] += a * mi;
                         }
                     }
                     None => {

@@ -247,3 +247,295 @@ fn inconsistent_starts_and_refusals() {
         .unwrap();
     assert!((b.last().1[0] - (-1.0f64).exp()).abs() < 1e-8, "{}", b.last().1[0]);
 }
+
+/// The linear finite-element mass matrix `h/6·tridiag(1, 4, 1)` of `n` interior nodes on
+/// [0, 1], assembled element by element (repeats summed by `Mass::sparse`), and its
+/// triplets.
+fn fem_mass_triplets(n: usize) -> Vec<(usize, usize, f64)> {
+    let h = 1.0 / (n as f64 + 1.0);
+    let mut t = Vec::new();
+    // element e joins nodes e and e + 1 of 0..=n+1; interior node i is index i − 1
+    for e in 0..=n {
+        let nodes = [e, e + 1];
+        for (a, &p) in nodes.iter().enumerate() {
+            for (b, &q) in nodes.iter().enumerate() {
+                if (1..=n).contains(&p) && (1..=n).contains(&q) {
+                    t.push((p - 1, q - 1, h / 6.0 * if a == b { 2.0 } else { 1.0 }));
+                }
+            }
+        }
+    }
+    t
+}
+
+/// `f(u) = −K·u`, `K = 1/h·tridiag(−1, 2, −1)` (Dirichlet 0 at both ends).
+fn heat_stiffness(n: usize) -> impl reckon::DualSystem<nalgebra::Dyn> + Clone {
+    let inv_h = n as f64 + 1.0;
+    model!(|_t, u: [S; Dyn]| {
+        let n = u.len();
+        nalgebra::DVector::from_fn(n, |i, _| {
+            let l = if i == 0 { S::from(0.0) } else { u[i - 1].clone() };
+            let r = if i + 1 == n { S::from(0.0) } else { u[i + 1].clone() };
+            (l + r - u[i].clone() * 2.0) * inv_h
+        })
+    })
+}
+
+/// Mode `k` at the nodes, `sin(kπx_i)`, and its generalised eigenvalue of `(K, M)`,
+/// `λ = (6/h²)(1 − cos kπh)/(2 + cos kπh)`.
+fn heat_mode(n: usize, k: usize) -> (nalgebra::DVector<f64>, f64) {
+    let h = 1.0 / (n as f64 + 1.0);
+    let th = k as f64 * std::f64::consts::PI * h;
+    let u0 = nalgebra::DVector::from_fn(n, |i, _| (th * (i + 1) as f64).sin());
+    (u0, 6.0 / (h * h) * (1.0 - th.cos()) / (2.0 + th.cos()))
+}
+
+/// The 1-D heat equation with linear finite elements, `M·u' = −K·u` with the consistent
+/// mass `M = h/6·tridiag(1, 4, 1)` as `Mass::sparse`: a mode `sin(kπx)` decays exactly as
+/// `exp(−λt)`, λ the generalised eigenvalue. With `Bdf` and `Rodas5P`, on the sparse path
+/// (2 500 nodes: the slow mode to t = 0.1 and the mode k = n/3, whose λ a lumped or
+/// otherwise wrong `M` changes by 20 %, to t = 1/λ) and the dense path (50 nodes, where
+/// λ₁ differs from π² by 3e-4: a wrong `M` there shows), and `Mass::sparse` against
+/// `Mass::dense` of the same matrix on the dense path (the same steps, the same answer to
+/// rounding).
+#[test]
+fn heat_equation_with_a_sparse_fem_mass() {
+    let o = Options::default().rtol(1e-9).atol(1e-12).save(Save::End);
+    for (n, solver, modes) in [
+        (2500, LinearSolver::Sparse, vec![1, 2500 / 3]),
+        (50, LinearSolver::Dense, vec![1, 17]),
+    ] {
+        let f = heat_stiffness(n);
+        let mass = Mass::sparse(n, &fem_mass_triplets(n)).unwrap();
+        assert!(!mass.is_singular());
+        for k in modes {
+            let (u0, lambda) = heat_mode(n, k);
+            let t_end = if k == 1 { 0.1 } else { 1.0 / lambda };
+            let o = o.clone().linear_solver(solver);
+            for name in ["bdf", "rodas5p"] {
+                let p = Problem::new(&f, u0.clone(), (0.0, t_end)).mass(mass.clone());
+                let s = match name {
+                    "bdf" => p.solve(Bdf::default(), &o),
+                    _ => p.solve(Rodas5P, &o),
+                }
+                .unwrap();
+                let exact = &u0 * (-lambda * t_end).exp();
+                let err = (s.last().1 - &exact).amax() / exact.amax();
+                println!(
+                    "heat n {n} mode {k} (λ = {lambda:.6e}) {name} {solver:?}: relative error {err:.2e}, {:?}",
+                    s.stats
+                );
+                assert!(err < 2e-7, "n {n} mode {k} {name}: {err:e}");
+                assert!(s.x0_corrected.is_none());
+            }
+        }
+        if n > 100 {
+            continue;
+        }
+        // Mass::sparse and Mass::dense of the same matrix on the dense path
+        let mut dense = DMatrix::zeros(n, n);
+        for (i, j, v) in fem_mass_triplets(n) {
+            dense[(i, j)] += v;
+        }
+        let (u0, _) = heat_mode(n, 1);
+        let o = o.clone().linear_solver(LinearSolver::Dense);
+        for name in ["bdf", "rodas5p"] {
+            let run = |m: Mass| {
+                let p = Problem::new(&f, u0.clone(), (0.0, 0.1)).mass(m);
+                match name {
+                    "bdf" => p.solve(Bdf::default(), &o),
+                    _ => p.solve(Rodas5P, &o),
+                }
+                .unwrap()
+            };
+            let (a, b) = (run(mass.clone()), run(Mass::dense(dense.clone())));
+            let d = (a.last().1 - b.last().1).amax();
+            println!("heat n {n} {name}: sparse against dense M {d:.1e}");
+            assert_eq!(a.stats.accepted, b.stats.accepted, "{name}");
+            assert!(d < 1e-14, "{name}: {d:e}");
+        }
+    }
+}
+
+/// Index-1 DAEs with a sparse singular `M`: Robertson (`M = diag(1, 1, 0)` as
+/// `Mass::sparse`, zero third row and column) gives the diagonal kind's answer and the
+/// published reference, dense and sparse; the transistor amplifier's `M` (singular with no
+/// zero row: null spaces from an SVD) as `Mass::sparse` gives `Mass::dense`'s answer and
+/// ≥ 5 digits of the Test Set's reference at rtol 1e-6 (the products are summed row by
+/// row in the dense kind's order: the same steps, the same answer).
+#[test]
+fn sparse_singular_mass_against_diagonal_and_dense() {
+    let dae = robertson_dae();
+    let y0 = vector![1.0, 0.0, 0.0];
+    let sparse = Mass::sparse(3, &[(0, 0, 1.0), (1, 1, 1.0)]).unwrap();
+    assert!(sparse.is_singular());
+    let o = Options::default().rtol(1e-8).atol(1e-12).save(Save::End);
+    for solver in [LinearSolver::Dense, LinearSolver::Sparse] {
+        let o = o.clone().linear_solver(solver);
+        for name in ["bdf", "rodas5p"] {
+            let go = |m: Mass| match name {
+                "bdf" => run(&dae, m, y0, 1e5, Bdf::default(), &o),
+                _ => run(&dae, m, y0, 1e5, Rodas5P, &o),
+            };
+            let (a, b) = (go(sparse.clone()), go(Mass::diagonal(vec![1.0, 1.0, 0.0])));
+            let m = mescd(a.last().1, &ROBERTSON_REF_1E5, 1e-4);
+            let d = (a.last().1 - b.last().1).amax();
+            println!("robertson sparse M {name} {solver:?}: mescd {m:.2}, against diagonal {d:.1e}");
+            assert!(m >= 7.0, "{name} {solver:?}: mescd {m:.2}");
+            assert!(d <= 1e-15, "{name} {solver:?}: {d:e}");
+            assert_eq!(a.stats.accepted, b.stats.accepted);
+        }
+    }
+    let amp = transamp();
+    let dm = transamp_mass();
+    let t: Vec<(usize, usize, f64)> = (0..8)
+        .flat_map(|i| (0..8).map(move |j| (i, j)))
+        .filter(|&(i, j)| dm[(i, j)] != 0.0)
+        .map(|(i, j)| (i, j, dm[(i, j)]))
+        .collect();
+    let sm = Mass::sparse(8, &t).unwrap();
+    assert!(sm.is_singular());
+    let o = Options::default().rtol(1e-6).atol(1e-6).save(Save::End);
+    let y0 = vector![0.0, 3.0, 3.0, 6.0, 3.0, 3.0, 6.0, 0.0];
+    for name in ["bdf", "rodas5p"] {
+        let go = |m: Mass| match name {
+            "bdf" => run(&amp, m, y0, 0.2, Bdf::default(), &o),
+            _ => run(&amp, m, y0, 0.2, Rodas5P, &o),
+        };
+        let (a, b) = (go(sm.clone()), go(Mass::dense(dm.clone())));
+        let m = mescd(a.last().1, &TRANSAMP_REF_02, 1.0);
+        let d = (a.last().1 - b.last().1).amax();
+        println!("transamp sparse M {name}: mescd {m:.2}, against dense M {d:.1e}");
+        assert!(m >= 5.0, "{name}: mescd {m:.2}");
+        assert!(d <= 1e-15, "{name}: {d:e}");
+        assert_eq!(a.stats.accepted, b.stats.accepted, "{name}");
+    }
+}
+
+/// A chain of 1 500 algebraic constraints above the dense limit (3 000 states, traced
+/// sparse Jacobian): `x_i' = −x_i`, `0 = y_i − y_{i−1}/2 − x_i²` with `M` the identity on
+/// the `x` and zero rows and columns on the `y`, started at `y = 0` (inconsistent): the
+/// start is corrected to `y_i = a²(2 − 2^{1−i})` and the end is `x_i = a·e^{−t}`,
+/// `y_i = a²e^{−2t}(2 − 2^{1−i})`, with `Mass::sparse` and `Mass::diagonal`, `Bdf` and
+/// `Rodas5P`. A singular `M` there without that structure (a zero row whose column is not
+/// zero) is a typed error, not a silent skip.
+#[test]
+fn algebraic_chain_above_the_dense_limit() {
+    let m = 1500;
+    let a = 0.7;
+    let f = model!(|_t, z: [S; Dyn]| {
+        let m = z.len() / 2;
+        nalgebra::DVector::from_fn(2 * m, |k, _| {
+            let i = k / 2;
+            if k % 2 == 0 {
+                -z[2 * i].clone()
+            } else {
+                let prev = if i == 0 {
+                    S::from(0.0)
+                } else {
+                    z[2 * i - 1].clone() * 0.5
+                };
+                z[2 * i + 1].clone() - prev - z[2 * i].clone() * z[2 * i].clone()
+            }
+        })
+    });
+    let z0 = nalgebra::DVector::from_fn(2 * m, |k, _| if k % 2 == 0 { a } else { 0.0 });
+    let y_of = |i: usize, t: f64| a * a * (-2.0 * t).exp() * (2.0 - 2f64.powi(1 - i as i32));
+    let t_end = 1.0;
+    let o = Options::default()
+        .rtol(1e-9)
+        .atol(1e-12)
+        .save(Save::End)
+        .linear_solver(LinearSolver::Sparse);
+    let masses = [
+        Mass::sparse(2 * m, &(0..m).map(|i| (2 * i, 2 * i, 1.0)).collect::<Vec<_>>()).unwrap(),
+        Mass::diagonal((0..2 * m).map(|k| if k % 2 == 0 { 1.0 } else { 0.0 }).collect()),
+    ];
+    for mass in masses {
+        for name in ["bdf", "rodas5p"] {
+            let p = Problem::new(&f, z0.clone(), (0.0, t_end)).mass(mass.clone());
+            let s = match name {
+                "bdf" => p.solve(Bdf::default(), &o),
+                _ => p.solve(Rodas5P, &o),
+            }
+            .unwrap();
+            let c = s.x0_corrected.as_ref().expect("y corrected");
+            let mut start = 0.0f64;
+            let mut end = 0.0f64;
+            let z = s.last().1;
+            for i in 0..m {
+                assert_eq!(c[2 * i], a, "x kept");
+                start = start.max((c[2 * i + 1] - y_of(i + 1, 0.0)).abs());
+                end = end
+                    .max((z[2 * i] - a * (-t_end).exp()).abs())
+                    .max((z[2 * i + 1] - y_of(i + 1, t_end)).abs());
+            }
+            println!(
+                "chain of {m} ({} M) {name}: start error {start:.1e}, end error {end:.1e}, {:?}",
+                if mass.is_diagonal() { "diagonal" } else { "sparse" },
+                s.stats
+            );
+            assert!(start < 1e-14, "{name}: {start:e}");
+            assert!(end < 1e-8, "{name}: {end:e}");
+        }
+    }
+    // x_i' + y_i' = −x_i: row y_i of M is zero, its column is not
+    let t: Vec<(usize, usize, f64)> = (0..m)
+        .flat_map(|i| [(2 * i, 2 * i, 1.0), (2 * i, 2 * i + 1, 1.0)])
+        .collect();
+    let e = Problem::new(&f, z0.clone(), (0.0, t_end))
+        .mass(Mass::sparse(2 * m, &t).unwrap())
+        .solve(Bdf::default(), &o)
+        .unwrap_err();
+    assert!(
+        matches!(e, Error::InvalidInput { .. }) && e.to_string().contains("zero rows and columns"),
+        "{e}"
+    );
+}
+
+/// `Mass::sparse` and `Mass::sparse_csc` refuse bad input with typed errors; a sparse `M`
+/// of the wrong size for the problem, and a dense `M` on the sparse path, are refused
+/// when solving.
+#[test]
+fn sparse_mass_bad_input() {
+    let msg = |r: Result<Mass, Error>| {
+        let e = r.unwrap_err();
+        assert!(matches!(e, Error::InvalidInput { .. }), "{e}");
+        e.to_string()
+    };
+    assert_eq!(
+        msg(Mass::sparse(3, &[(0, 0, 1.0), (3, 1, 1.0)])),
+        "invalid mass: entry (3, 1) is outside the 3 × 3 matrix"
+    );
+    assert_eq!(
+        msg(Mass::sparse(3, &[(0, 0, f64::NAN)])),
+        "invalid mass: entry (0, 0) is NaN"
+    );
+    assert_eq!(
+        msg(Mass::sparse(2, &[(0, 0, f64::MAX), (0, 0, f64::MAX)])),
+        "invalid mass: entry (0, 0) sums to inf"
+    );
+    assert_eq!(
+        msg(Mass::sparse_csc(3, 2, &[0, 1, 2], &[0, 1], &[1.0, 1.0])),
+        "invalid mass: 3×2 is not square"
+    );
+    assert!(msg(Mass::sparse_csc(2, 2, &[0, 1], &[0], &[1.0])).contains("do not describe 2 columns"));
+    assert!(msg(Mass::sparse_csc(2, 2, &[0, 1, 2], &[0, 2], &[1.0, 1.0])).contains("outside"));
+    // repeats summed, zeros dropped
+    assert_eq!(
+        Mass::sparse(2, &[(1, 1, 2.0), (0, 0, 1.0), (1, 1, -2.0)]).unwrap(),
+        Mass::sparse(2, &[(0, 0, 1.0)]).unwrap()
+    );
+    let akzo = chemakzo();
+    let five = Mass::sparse(5, &(0..5).map(|i| (i, i, 1.0)).collect::<Vec<_>>()).unwrap();
+    let e = Problem::new(&akzo, akzo_y0(), (0.0, 1.0))
+        .mass(five)
+        .solve(Bdf::default(), &Options::default())
+        .unwrap_err();
+    assert_eq!(e.to_string(), "invalid mass: 5×5 for a state of 6");
+    let e = Problem::new(&akzo, akzo_y0(), (0.0, 1.0))
+        .mass(Mass::dense(DMatrix::identity(6, 6)))
+        .solve(Bdf::default(), &Options::default().linear_solver(LinearSolver::Sparse))
+        .unwrap_err();
+    assert!(e.to_string().contains("Mass::sparse"), "{e}");
+}

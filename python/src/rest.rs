@@ -169,6 +169,21 @@ where
     }
 }
 
+/// The vehicle `sys` from `x0` over `[t_0, t_K]` with row `k` of `u` (`m` values) held
+/// over `[t_k, t_{k+1})`.
+fn held<'a, const N: usize, S: System<Const<N>>>(
+    sys: S,
+    x0: &[f64],
+    t: &[f64],
+    u: &[f64],
+    m: usize,
+) -> reckon::Result<Problem<'a, Const<N>, S>> {
+    let k = t.len() - 1;
+    let rows: Vec<Vec<f64>> = (0..k).map(|i| u[i * m..(i + 1) * m].to_vec()).collect();
+    let controls = Controls::new(t[..k].to_vec(), rows)?;
+    Ok(Problem::new(sys, SVector::<f64, N>::from_column_slice(x0), (t[0], t[k])).controls(controls))
+}
+
 /// Integrate with `x0` and the rows of `u` (`len(t) − 1` rows of `m`) held over
 /// `[t_k, t_{k+1})`, keeping the state at every `t_k`: `(t, y row-major (n, len t), stats)`.
 #[allow(clippy::too_many_arguments)]
@@ -186,10 +201,7 @@ fn simulate_n<const N: usize, S: System<Const<N>>, F: Flow<Const<N>>>(
 where
     Const<N>: LuDim,
 {
-    let k = t.len() - 1;
-    let rows: Vec<Vec<f64>> = (0..k).map(|i| u[i * m..(i + 1) * m].to_vec()).collect();
-    let controls = Controls::new(t[..k].to_vec(), rows)?;
-    let problem = Problem::new(sys, SVector::<f64, N>::from_column_slice(x0), (t[0], t[k])).controls(controls);
+    let problem = held(sys, x0, t, u, m)?;
     let sol = run_vehicle(problem, flow, method, &opts.save(Save::At(t.to_vec())), step)?;
     let cols = sol.t.len();
     let mut y = vec![0.0; N * cols];
@@ -224,12 +236,7 @@ pub(crate) fn vehicle_simulate<'py>(
     let (n, m) = check_vehicle(py, kind, &params)?;
     let (t, u) = (slice(py, &t, "t")?, slice(py, &u, "u")?);
     check_run(py, kind, n, m, method, &x0, t, u, step)?;
-    let opts = Options::default()
-        .rtol(rtol)
-        .atol(atol)
-        .h_max(max_step)
-        .max_steps(max_steps);
-    opts.validate().map_err(|e| errors::to_py(py, &e))?;
+    let opts = run_options(py, rtol, atol, max_step, max_steps)?;
     let p = params.as_slice();
     let result = with_vehicle!(py, kind, p, |sys, flow| py
         .detach(|| simulate_n(sys, flow, &x0, t, u, m, method, opts, step)));
@@ -258,10 +265,7 @@ fn sensitivities_n<const N: usize, S: DualSystem<Const<N>>>(
 where
     Const<N>: LuDim,
 {
-    let k = t.len() - 1;
-    let rows: Vec<Vec<f64>> = (0..k).map(|i| u[i * m..(i + 1) * m].to_vec()).collect();
-    let controls = Controls::new(t[..k].to_vec(), rows)?;
-    let problem = Problem::new(sys, SVector::<f64, N>::from_column_slice(x0), (t[0], t[k])).controls(controls);
+    let problem = held(sys, x0, t, u, m)?;
     let opts = opts.save(Save::At(t.to_vec()));
     let fixed = opts.clone().fixed(step.unwrap_or(f64::MAX));
     let adaptive = match step {
@@ -336,12 +340,7 @@ pub(crate) fn vehicle_sensitivities<'py>(
     let (n, m) = check_vehicle(py, kind, &params)?;
     let (t, u) = (slice(py, &t, "t")?, slice(py, &u, "u")?);
     check_run(py, kind, n, m, method, &x0, t, u, step)?;
-    let opts = Options::default()
-        .rtol(rtol)
-        .atol(atol)
-        .h_max(max_step)
-        .max_steps(max_steps);
-    opts.validate().map_err(|e| errors::to_py(py, &e))?;
+    let opts = run_options(py, rtol, atol, max_step, max_steps)?;
     let p = params.as_slice();
     let result = if method == "Exact" {
         if kind != "unicycle" {
@@ -354,14 +353,7 @@ pub(crate) fn vehicle_sensitivities<'py>(
             ));
         }
         py.detach(|| -> reckon::Result<Packed> {
-            let k = t.len() - 1;
-            let rows: Vec<Vec<f64>> = (0..k).map(|i| u[i * m..(i + 1) * m].to_vec()).collect();
-            let problem = Problem::new(
-                unicycle::model(),
-                SVector::<f64, 3>::from_column_slice(&x0),
-                (t[0], t[k]),
-            )
-            .controls(Controls::new(t[..k].to_vec(), rows)?);
+            let problem = held(unicycle::model(), &x0, t, u, m)?;
             let opts = opts.save(Save::At(t.to_vec())).fixed(step.unwrap_or(f64::MAX));
             let sol = sensitivity::solve(
                 &problem,
@@ -388,6 +380,17 @@ pub(crate) fn vehicle_sensitivities<'py>(
     out.set_item("s", PyArray1::from_vec(py, s).reshape([k, n, cols])?)?;
     out.set_item("stats", stats_dict(py, &stats)?)?;
     Ok(out)
+}
+
+/// The options of a vehicle run, validated.
+fn run_options(py: Python<'_>, rtol: f64, atol: f64, max_step: f64, max_steps: usize) -> PyResult<Options> {
+    let opts = Options::default()
+        .rtol(rtol)
+        .atol(atol)
+        .h_max(max_step)
+        .max_steps(max_steps);
+    opts.validate().map_err(|e| errors::to_py(py, &e))?;
+    Ok(opts)
 }
 
 /// The checks of a vehicle run's method, state, times and inputs.

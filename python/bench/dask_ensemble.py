@@ -1,13 +1,14 @@
 """An encoder-robot ensemble on a 2-worker Dask LocalCluster against one process.
 
 The README's ensemble (20 000 members × 4 000 encoder samples, pulse noise, slip and
-between-member spreads) run four ways, interleaved, best of `repeats` wall times:
+between-member spreads) run five ways, interleaved, best of `repeats` wall times:
 
 - one process, one thread: `EncoderEnsemble.run(threads=1)`;
 - one process, every core: `EncoderEnsemble.run()` (rayon, the GIL released);
 - Dask: `reckon.dask.encoder_ensemble` on `LocalCluster(n_workers=2,
-  threads_per_worker=1, processes=True)`, two shards (the cluster started once, before
-  the clock; a warm-up run first, so the workers have imported reckon);
+  threads_per_worker=1, processes=True)`, two shards and eight shards (the cluster
+  started once, before the clock; a warm-up run first, so the workers have imported
+  reckon);
 - with `--cli PATH`, the Rust CLI `reckon ensemble --threads 1` and with every core on
   the same members (its `--stats` must have the same snapshots bit for bit).
 
@@ -109,6 +110,9 @@ def main():
             keep("1 process, 2 threads", *timed(lambda: drive.run(members, SEED).to_json()))
             keep("Dask, 2 workers × 1 thread", *timed(
                 lambda: reckon.dask.encoder_ensemble(client, drive, members, SEED).to_json(), client))
+            keep("Dask, 8 shards on 2 workers", *timed(
+                lambda: reckon.dask.encoder_ensemble(client, drive, members, SEED, shards=8).to_json(),
+                client))
             if cli:
                 keep("CLI, 1 thread", *timed(lambda: run_cli(1)))
                 keep("CLI, 2 threads", *timed(lambda: run_cli(None)))

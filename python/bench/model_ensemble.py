@@ -7,12 +7,15 @@ atol 1e-9, saved at 10 times, two ensembles:
 - `params`: the same x₀ draws and (σ, ρ, β) ~ N(·, (0.1, 0.5, 0.05)²) (traced as 3 more
   states of zero derivative: 6 states).
 
-Best of `repeats` interleaved runs of `members` members each; checks that the threads give
-the same bits. Prints the load average before and after.
+Best of `repeats` interleaved runs of `members` members each, on 1 thread, 2 threads and
+(with `--dask`) 8 shards on a `LocalCluster(n_workers=2, threads_per_worker=1,
+processes=True)` started and warmed up before the clock; checks that every run gives the
+same bits. Prints the load average before and after.
 
-    python bench/model_ensemble.py [members] [repeats]
+    python bench/model_ensemble.py [members] [repeats] [--dask]
 """
 
+import json
 import os
 import sys
 import time
@@ -31,8 +34,18 @@ def lorenz(t, y, s, r, b):
 
 
 def main():
-    members = int(sys.argv[1]) if len(sys.argv) > 1 else 10_000
-    repeats = int(sys.argv[2]) if len(sys.argv) > 2 else 3
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    members = int(args[0]) if args else 10_000
+    repeats = int(args[1]) if len(args) > 1 else 3
+    client = None
+    if "--dask" in sys.argv:
+        import distributed
+
+        import reckon.dask
+
+        cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                           dashboard_address=None)
+        client = distributed.Client(cluster)
     common = dict(t_eval=np.linspace(0.1, 1.0, 10), rtol=1e-6, atol=1e-9)
     cases = {
         "x0 (3 states)": reckon.Ensemble(lorenz_fixed, (0, 1), [1.0, 1.0, 20.0], y0_sigma=0.1,
@@ -43,18 +56,31 @@ def main():
     }
     print(f"load average before: {os.getloadavg()}")
     for name, ens in cases.items():
-        best = {1: np.inf, 2: np.inf}
+        runs = {1: lambda: ens.run(members, seed=1, threads=1).to_json(),
+                2: lambda: ens.run(members, seed=1, threads=2).to_json()}
+        if client is not None:
+            reckon.dask.ensemble(client, ens, 200, seed=1, shards=2)  # warm-up: imports, trace
+            runs["dask"] = lambda: reckon.dask.ensemble(client, ens, members, seed=1, shards=8).to_json()
+        best = dict.fromkeys(runs, np.inf)
         out = {}
         for _ in range(repeats):
-            for th in (1, 2):
+            for key, run in runs.items():
                 t = time.perf_counter()
-                out[th] = ens.run(members, seed=1, threads=th).to_json()
-                best[th] = min(best[th], time.perf_counter() - t)
-        assert out[1] == out[2]
-        print(f"{name}: {members} members; 1 thread {best[1]:.3f} s = {members / best[1]:,.0f}/s; "
-              f"2 threads {best[2]:.3f} s = {members / best[2]:,.0f}/s; "
-              f"speed-up {best[1] / best[2]:.2f}x; same bits")
+                out[key] = run()
+                best[key] = min(best[key], time.perf_counter() - t)
+        # the statistics, without which shards of how many made them
+        same = [{k: v for k, v in json.loads(o).items() if k not in ("shards", "shard_count")}
+                for o in out.values()]
+        assert all(v == same[0] for v in same)
+        line = (f"{name}: {members} members; 1 thread {best[1]:.3f} s = {members / best[1]:,.0f}/s; "
+                f"2 threads {best[2]:.3f} s = {members / best[2]:,.0f}/s, speed-up {best[1] / best[2]:.2f}x")
+        if "dask" in best:
+            line += f"; Dask 8 shards {best['dask']:.3f} s, speed-up {best[1] / best['dask']:.2f}x"
+        print(line + "; same bits")
     print(f"load average after: {os.getloadavg()}")
+    if client is not None:
+        client.close()
+        cluster.close()
 
 
 if __name__ == "__main__":

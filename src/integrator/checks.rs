@@ -100,6 +100,7 @@ where
                 continue;
             }
             if ev.crosses(g0, g1) {
+                self.ensure_dense(h)?;
                 let mut te = if g1 == 0.0 {
                     *t_new
                 } else {

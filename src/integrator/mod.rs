@@ -716,8 +716,12 @@ where
         }
         let mut end = EventEnd::Passed;
         if self.output.keep_dense {
-            self.stepper
-                .dense(&mut self.f, self.t, h, &self.x, &self.x_new, &mut self.output.dense)?;
+            self.output.dense_fresh = false;
+            // an output time before the step's end is interpolated (one at the end is x_new)
+            let inside = self.output.next_time.is_some_and(|ta| self.dir * (ta - t_new) < 0.0);
+            if self.output.store_dense || inside {
+                self.ensure_dense(h)?;
+            }
             end = self.check_events(h, &mut t_new)?;
         }
         self.output.last_step = (self.t, h, t_new);
@@ -753,6 +757,17 @@ where
         self.arrive(land);
         Ok(())
     }
+    /// The dense polynomial of the step of size `h` being accepted (from `self.t`), into
+    /// `output.dense`, unless it is there already.
+    pub(super) fn ensure_dense(&mut self, h: f64) -> Result<()> {
+        if !self.output.dense_fresh {
+            self.stepper
+                .dense(&mut self.f, self.t, h, &self.x, &self.x_new, &mut self.output.dense)?;
+            self.output.dense_fresh = true;
+        }
+        Ok(())
+    }
+
     /// After a reset of the state: the method starts afresh from `(t, x)` (its carried
     /// stages, history and factorisations dropped), and an adaptive run chooses its
     /// step again as at the start (Hairer's algorithm, the controller's memory cleared).
@@ -826,9 +841,13 @@ where
                 self.run_lean_fixed(|t: f64, x: &OVector<f64, D>| out.step(t, x, None))?;
             }
         }
-        while self.step()?.is_some() {
+        loop {
+            self.output.next_time = out.next_time();
+            if self.step()?.is_none() {
+                break;
+            }
             let (t0, h, t1) = self.output.last_step;
-            let seg = self.output.keep_dense.then_some((t0, h, self.output.dense.as_slice()));
+            let seg = self.output.dense_fresh.then_some((t0, h, self.output.dense.as_slice()));
             match self.output.jump.take() {
                 // a reset: the state before it ends the step, the one after it starts the next
                 Some(before) => {

@@ -16,8 +16,15 @@ pub(super) struct Output<D: Dim>
 where
     DefaultAllocator: Allocator<D>,
 {
-    /// Whether each step's dense polynomial is computed (events, output times, `dense`).
+    /// Whether a step's dense polynomial may be read (events, output times, `dense`).
     pub(super) keep_dense: bool,
+    /// Whether `dense` holds the polynomial of the step being accepted: it is computed
+    /// when something reads it (an output time inside the step, a crossing, `dense`),
+    /// not at every step.
+    pub(super) dense_fresh: bool,
+    /// The first output time the solution has not saved yet ([`Save::At`]), set by
+    /// [`solve`](super::Integrator::solve) before each step.
+    pub(super) next_time: Option<f64>,
     /// Whether [`solve`](super::Integrator::solve) stores the dense segments
     /// (`Options::dense` only).
     pub(super) store_dense: bool,
@@ -75,6 +82,8 @@ where
         let keep_dense = opts.dense || !problem.events.is_empty() || at_times;
         Ok(Output {
             keep_dense,
+            dense_fresh: false,
+            next_time: None,
             // the polynomials are computed for events and output times, but kept in the
             // solution only when asked (`Options::dense`)
             store_dense: opts.dense,

@@ -220,6 +220,15 @@ where
     }
 
     /// Whether only the end state is kept ([`Save::End`]).
+    /// The first output time not saved yet ([`Save::At`]; `None` otherwise or when all
+    /// are): a step that ends past it needs its dense polynomial.
+    pub(super) fn next_time(&self) -> Option<f64> {
+        match self.mode {
+            Mode::At => self.at.get(self.next).copied(),
+            _ => None,
+        }
+    }
+
     pub(super) fn end_only(&self) -> bool {
         self.mode == Mode::End
     }

@@ -3,9 +3,10 @@
 //!
 //! A model offers one through [`System::sparse_jacobian`](crate::System::sparse_jacobian):
 //! a traced [`model!`](crate::model) gives the compiled symbolic evaluator
-//! ([`crate::symbolic`]); the implicit methods then factor `I − c·J` with faer's sparse LU
-//! ([`SparseLu`](crate::linalg::SparseLu)) when [`Options::linear_solver`](crate::Options::linear_solver) chooses
-//! it. A model that cannot be traced can still give one by column colouring
+//! ([`crate::symbolic`]); the implicit methods then factor `I − c·J` with a banded LU
+//! ([`BandLu`](crate::linalg::BandLu)) when its pattern lies in a narrow band, with faer's
+//! sparse LU ([`SparseLu`](crate::linalg::SparseLu)) otherwise, when
+//! [`Options::linear_solver`](crate::Options::linear_solver) chooses the sparse path. A model that cannot be traced can still give one by column colouring
 //! ([`colour::Coloured`] over its dual-number body).
 
 pub(crate) mod choice;
@@ -225,9 +226,11 @@ pub(crate) fn check_values(values: &[f64], nnz: usize) -> crate::Result<()> {
 /// - `Dense`: `J` from [`System::jacobian`](crate::System::jacobian) into an `n × n`
 ///   matrix, nalgebra's stack LU for fixed sizes, faer's partial-pivoting LU for `DVector`.
 /// - `Sparse`: `J`'s non-zeros from the model's
-///   [`System::sparse_jacobian`](crate::System::sparse_jacobian), faer's sparse LU of `M`
-///   (pattern `J ∪ I`, analysed once; [`SparseLu`](crate::linalg::SparseLu)); no `n × n`
-///   storage. A model without a sparse Jacobian is refused
+///   [`System::sparse_jacobian`](crate::System::sparse_jacobian) and an LU of `M` in the
+///   pattern `J ∪ I`: banded ([`BandLu`](crate::linalg::BandLu), LAPACK's `dgbtrf`) when
+///   that pattern lies in a narrow, mostly filled band ([`Band::suits`](crate::linalg::Band::suits):
+///   1-D PDE stencils, chains), faer's sparse LU ([`SparseLu`](crate::linalg::SparseLu),
+///   analysed once) otherwise; no `n × n` storage. A model without a sparse Jacobian is refused
 ///   ([`Error::InvalidInput`](crate::Error::InvalidInput) `"linear_solver"`) when an
 ///   implicit method starts.
 /// - `Auto` (default): sparse when the model offers a sparse Jacobian, the state has at
@@ -257,6 +260,6 @@ pub enum LinearSolver {
     Auto,
     /// Always the dense `n × n` Jacobian and LU.
     Dense,
-    /// Always the model's sparse Jacobian and faer's sparse LU.
+    /// Always the model's sparse Jacobian and a sparse (or banded) LU.
     Sparse,
 }

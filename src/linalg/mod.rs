@@ -1,7 +1,7 @@
 //! Linear algebra, below the model: LU factorisation chosen by the state dimension
 //! (nalgebra's stack-allocated LU for fixed sizes `Const<N>`, faer's partial-pivoting LU
 //! for `Dyn`), faer's sparse LU for a fixed [`Pattern`](crate::jacobian::Pattern)
-//! ([`SparseLu`]), the matrix exponential ([`expm`]) and restarted Arnoldi for the
+//! ([`SparseLu`]) and a banded LU for patterns in a narrow band ([`BandLu`]), the matrix exponential ([`expm`]) and restarted Arnoldi for the
 //! spectrum of a large sparse matrix ([`arnoldi`]). The Newton iteration matrix
 //! `I − h·J` that the implicit methods share is built on these in `methods`.
 
@@ -10,8 +10,10 @@ use nalgebra::{Const, DMatrix, DVector, Dyn, OMatrix, OVector, SMatrix, SVector}
 pub mod arnoldi;
 pub mod expm;
 
+mod band_lu;
 mod sparse_lu;
 
+pub use band_lu::{Band, BandLu};
 pub use sparse_lu::SparseLu;
 
 /// A factorisation of a square matrix that can solve `M·y = b` in place.

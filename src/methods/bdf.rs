@@ -14,6 +14,10 @@ use nalgebra::{DefaultAllocator, OVector};
 
 /// Highest order.
 pub const MAX_ORDER: usize = 5;
+/// States per block of the passes over the differences: a block of every difference
+/// stays in L1 while it is worked on (at 10⁶ states the vectors fit in no cache), and
+/// each pass over a block is vectorised along the states.
+const BLOCK: usize = 256;
 /// Klopfenstein–Shampine NDF coefficients `κ_k` (MATLAB `ode15s`, scipy): the NDF of
 /// order `k` adds `κ_k·γ_k·∇^{k+1}y_{n+1}` to the BDF formula, which lowers the error
 /// constant (by 26 % at k = 1, 2) at a small cost in stability (order 5 uses plain BDF).
@@ -177,11 +181,13 @@ where
     psi: OVector<f64, D>,
     /// Newton's correction `y_{n+1} − y⁽⁰⁾`, which is `∇^{k+1} y_{n+1}`.
     d: OVector<f64, D>,
-    err: OVector<f64, D>,
     /// Tolerance scale at the accepted `y_{n+1}`, for the order-selection norms.
     scale: OVector<f64, D>,
     /// Leading components in the error estimate ([`Weights::controlled`]).
     controlled: usize,
+    /// [`Bdf::factor`] and Newton's tolerance for the run's weights (computed at the
+    /// first step).
+    tols: Option<(f64, f64)>,
     /// Step factor of the last attempt's Newton work: `(2m + 1)/(2m + n)` for `n` of
     /// `m` iterations (scipy's; 1 after one iteration, lower after many).
     safety: f64,
@@ -302,7 +308,8 @@ impl<D: LuDim> BdfStepper<D>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    /// Re-express the differences on the step `factor·h` (scipy `change_D`).
+    /// Re-express the differences on the step `factor·h` (scipy `change_D`):
+    /// `D_j ← Σ_i (R·U)_ij D_i`, one pass over the states.
     fn change_h(&mut self, factor: f64) {
         let k = self.order;
         let r = compute_r(k, factor);
@@ -313,14 +320,24 @@ where
                 ru[i][j] = (0..=k).map(|m| r[i][m] * u[m][j]).sum();
             }
         }
-        for j in 0..=k {
-            self.tmp[j].fill(0.0);
-            for i in 0..=k {
-                self.tmp[j].axpy(ru[i][j], &self.diffs[i], 1.0);
+        // in blocks of states (BLOCK)
+        let n = self.diffs[0].len();
+        let mut acc = [[0.0; BLOCK]; MAX_ORDER + 1];
+        for lo in (0..n).step_by(BLOCK) {
+            let hi = (lo + BLOCK).min(n);
+            for (j, a) in acc.iter_mut().enumerate().take(k + 1) {
+                let a = &mut a[..hi - lo];
+                a.fill(0.0);
+                for i in 0..=k {
+                    let c = ru[i][j];
+                    for (a, &x) in a.iter_mut().zip(&self.diffs[i].as_slice()[lo..hi]) {
+                        *a += c * x;
+                    }
+                }
             }
-        }
-        for j in 0..=k {
-            self.diffs[j].copy_from(&self.tmp[j]);
+            for (j, a) in acc.iter().enumerate().take(k + 1) {
+                self.diffs[j].as_mut_slice()[lo..hi].copy_from_slice(&a[..hi - lo]);
+            }
         }
         self.h *= factor;
         self.equal_steps = 0;
@@ -437,9 +454,9 @@ where
             y_p: zero.clone(),
             psi: zero.clone(),
             d: zero.clone(),
-            err: zero.clone(),
             scale: zero.map(|_| 1.0),
             controlled: zero.len(),
+            tols: None,
             safety: 1.0,
         })
     }
@@ -462,9 +479,16 @@ where
             adaptive,
         } = s;
         let coef = self.method.coef;
-        let factor = self.method.factor(w);
+        // the tolerances are the run's: their minima are read once
+        let (factor, newton_tol) = *self.tols.get_or_insert_with(|| {
+            let factor = self.method.factor(w);
+            (
+                factor,
+                self.method.newton.tol.unwrap_or_else(|| newton::bdf_tol(w, factor)),
+            )
+        });
         let goal = Goal {
-            tol: self.method.newton.tol.unwrap_or_else(|| newton::bdf_tol(w, factor)),
+            tol: newton_tol,
             max_iters: self.method.newton.max_iters,
         };
         let s = self;
@@ -503,15 +527,20 @@ where
         for (j, gj) in g.iter_mut().enumerate().take(k + 1).skip(1) {
             *gj = coef.gamma[j] / coef.alpha[k];
         }
-        for i in 0..x.len() {
-            let (mut yp, mut ps) = (s.diffs[0][i], 0.0);
+        let n = x.len();
+        for lo in (0..n).step_by(BLOCK) {
+            let hi = (lo + BLOCK).min(n);
+            let yp = &mut s.y_p.as_mut_slice()[lo..hi];
+            let ps = &mut s.psi.as_mut_slice()[lo..hi];
+            yp.copy_from_slice(&s.diffs[0].as_slice()[lo..hi]);
+            ps.fill(0.0);
             for (j, gj) in g.iter().enumerate().take(k + 1).skip(1) {
-                let dj = s.diffs[j][i];
-                yp += dj;
-                ps += gj * dj;
+                let dj = &s.diffs[j].as_slice()[lo..hi];
+                for ((yp, ps), &dj) in yp.iter_mut().zip(ps.iter_mut()).zip(dj) {
+                    *yp += dj;
+                    *ps += gj * dj;
+                }
             }
-            s.y_p[i] = yp;
-            s.psi[i] = ps;
         }
         let c = h / coef.alpha[k];
         let t1 = t + h;
@@ -521,20 +550,26 @@ where
         let n_iter = s.newton.iterations as f64;
         let mi = goal.max_iters as f64;
         s.safety = (2.0 * mi + 1.0) / (2.0 * mi + n_iter);
-        for i in 0..x.len() {
-            s.scale[i] = w.scale(i, x_new[i]) * factor;
-        }
         s.controlled = w.controlled;
+        let n = x.len();
+        let nc = s.controlled.min(n);
+        // the scale at y_{n+1} and the error's weighted RMS (as `norm`) in one pass
+        let ce = coef.error[k];
+        let mut acc = 0.0;
+        for i in 0..n {
+            let sc = w.scale(i, x_new[i]) * factor;
+            s.scale[i] = sc;
+            if i < nc {
+                acc += (ce * s.d[i] / sc).powi(2);
+            }
+        }
         if !adaptive {
             return Ok(Outcome::Done { err: 0.0 });
         }
-        s.err.copy_from(&s.d);
-        let err = s.norm(coef.error[k], &s.err);
-        let n = x.len();
-        if s.controlled < n {
+        let err = (acc / nc.max(1) as f64).sqrt();
+        if nc < n {
             // the components outside the error control, watched (the sensitivities)
-            let c = coef.error[k];
-            w.rest_from(|i| c * s.err[i], x.as_slice(), x_new.as_slice());
+            w.rest_from(|i| ce * s.d[i], x.as_slice(), x_new.as_slice());
         }
         Ok(Outcome::Done { err })
     }
@@ -545,14 +580,25 @@ where
         // ∇^{k+2} y_{n+1} = d − ∇^{k+1} y_n, ∇^{k+1} y_{n+1} = d, then ∇ʲ y_{n+1} = ∇ʲ y_n + ∇^{j+1} y_{n+1}
         // (one pass over the differences, as in the predictor)
         assert!(s.diffs.len() > k + 2, "Bdf: difference array shorter than order + 3");
-        for i in 0..s.d.len() {
-            let di = s.d[i];
-            s.diffs[k + 2][i] = di - s.diffs[k + 1][i];
-            s.diffs[k + 1][i] = di;
-            let mut up = di;
-            for j in (0..=k).rev() {
-                up += s.diffs[j][i];
-                s.diffs[j][i] = up;
+        let n = s.d.len();
+        for lo in (0..n).step_by(BLOCK) {
+            let hi = (lo + BLOCK).min(n);
+            let d = &s.d.as_slice()[lo..hi];
+            let (low, high) = s.diffs.split_at_mut(k + 1);
+            let (d1, d2) = high.split_at_mut(1);
+            let (d1, d2) = (&mut d1[0].as_mut_slice()[lo..hi], &mut d2[0].as_mut_slice()[lo..hi]);
+            for ((a, b), &di) in d2.iter_mut().zip(d1.iter_mut()).zip(d) {
+                *a = di - *b;
+                *b = di;
+            }
+            // ∇ʲ ← ∇ʲ + ∇^{j+1}, from j = k down
+            let mut above: &[f64] = d1;
+            for dj in low.iter_mut().rev() {
+                let dj = &mut dj.as_mut_slice()[lo..hi];
+                for (a, &u) in dj.iter_mut().zip(above) {
+                    *a += u;
+                }
+                above = dj;
             }
         }
         s.equal_steps += 1;

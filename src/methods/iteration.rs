@@ -4,7 +4,7 @@
 
 use crate::error::Result;
 use crate::jacobian::Pattern;
-use crate::linalg::SparseLu;
+use crate::linalg::{Band, BandLu, SparseLu};
 use crate::linalg::{Lu, LuDim};
 use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
@@ -39,7 +39,8 @@ where
 }
 
 /// `J`'s values in its pattern, `M`'s in `J ∪ diag ∪ mass`, the maps between them and
-/// the LU (analysed once, on the union).
+/// the LU (analysed once, on the union): banded when the union lies in a narrow band
+/// ([`Band::suits`]), faer's general sparse LU otherwise.
 pub(crate) struct SparseMatrix {
     pattern: Pattern,
     j: Vec<f64>,
@@ -48,7 +49,7 @@ pub(crate) struct SparseMatrix {
     to_m: Vec<usize>,
     /// `m[diag[i]]` is `M_ii`.
     diag: Vec<usize>,
-    lu: SparseLu,
+    lu: SparseFactor,
     /// `‖J‖∞` of the current `J` (computed with it: O(nnz)) and the row sums it uses.
     norm: f64,
     rows: Vec<f64>,
@@ -80,7 +81,11 @@ impl SparseMatrix {
             .map(|(i, j)| mp.position(i, j).expect("J's pattern is inside M's"))
             .collect();
         let diag: Vec<usize> = (0..mp.n()).filter_map(|i| mp.position(i, i)).collect();
-        let lu = SparseLu::new(&mp)?;
+        let lu = if Band::suits(&mp) {
+            SparseFactor::Band(BandLu::new(&mp)?)
+        } else {
+            SparseFactor::General(Box::new(SparseLu::new(&mp)?))
+        };
         Some(SparseMatrix {
             j: vec![0.0; pattern.nnz()],
             m: vec![0.0; mp.nnz()],
@@ -92,6 +97,39 @@ impl SparseMatrix {
             norm: f64::NAN,
             mass,
         })
+    }
+}
+
+/// The factorisation of a sparse `M`.
+enum SparseFactor {
+    Band(BandLu),
+    General(Box<SparseLu>),
+}
+
+impl SparseFactor {
+    fn factor(&mut self, values: &[f64]) -> bool {
+        match self {
+            SparseFactor::Band(lu) => lu.factor(values),
+            SparseFactor::General(lu) => matches!(lu.factor(values), Ok(true)),
+        }
+    }
+    fn is_factored(&self) -> bool {
+        match self {
+            SparseFactor::Band(lu) => lu.is_factored(),
+            SparseFactor::General(lu) => lu.is_factored(),
+        }
+    }
+    fn forget(&mut self) {
+        match self {
+            SparseFactor::Band(lu) => lu.forget(),
+            SparseFactor::General(lu) => lu.forget(),
+        }
+    }
+    fn solve_in_place(&mut self, b: &mut [f64]) -> bool {
+        match self {
+            SparseFactor::Band(lu) => lu.solve_in_place(b),
+            SparseFactor::General(lu) => lu.solve_in_place(b).is_ok(),
+        }
     }
 }
 
@@ -223,7 +261,7 @@ where
                     }
                 }
                 // m has one value per non-zero of the pattern the LU was made for
-                matches!(s.lu.factor(&s.m), Ok(true))
+                s.lu.factor(&s.m)
             }
         }
     }
@@ -280,7 +318,7 @@ where
             }
             IterationMatrix::Block { lu: None, .. } => false,
             // (a length that is not n is refused, as a missing factorisation is)
-            IterationMatrix::Sparse(s) if s.lu.is_factored() => s.lu.solve_in_place(v.as_mut_slice()).is_ok(),
+            IterationMatrix::Sparse(s) if s.lu.is_factored() => s.lu.solve_in_place(v.as_mut_slice()),
             IterationMatrix::Sparse(_) => false,
         }
     }
@@ -341,7 +379,9 @@ mod tests {
         fd.sparse.choice = LinearSolver::Dense;
         let mut s = IterationMatrix::new(&mut fs, &x).unwrap();
         let mut d = IterationMatrix::new(&mut fd, &x).unwrap();
-        assert!(matches!(s, IterationMatrix::Sparse(_)) && matches!(d, IterationMatrix::Dense { .. }));
+        // BRUSS's interleaved (u, v) pattern lies in a band 2 + 2 wide: the banded LU
+        assert!(matches!(&s, IterationMatrix::Sparse(m) if matches!(m.lu, super::SparseFactor::Band(_))));
+        assert!(matches!(d, IterationMatrix::Dense { .. }));
         s.evaluate(&mut fs, 0.0, &x).unwrap();
         d.evaluate(&mut fd, 0.0, &x).unwrap();
         assert!((s.norm_inf() - d.norm_inf()).abs() <= 1e-14 * d.norm_inf());
@@ -355,5 +395,33 @@ mod tests {
         s.drop_lu();
         assert!(!s.is_factored());
         assert_eq!(fs.stats.jacobian_evals, 1);
+    }
+
+    /// An arrow pattern (full first row and column, the diagonal) is as wide as the
+    /// matrix: faer's general sparse LU, which solves as the dense LU does.
+    #[test]
+    fn wide_patterns_take_the_general_sparse_lu() {
+        use super::{SparseFactor, SparseMatrix};
+        use nalgebra::{DMatrix, DVector};
+        let n = 30;
+        let mut e: Vec<(usize, usize)> = (0..n).map(|i| (i, i)).collect();
+        e.extend((1..n).flat_map(|i| [(0, i), (i, 0)]));
+        let p = crate::jacobian::Pattern::from_entries(n, &e).unwrap();
+        let mut s = SparseMatrix::new(p.clone(), None).unwrap();
+        assert!(matches!(s.lu, SparseFactor::General(_)));
+        let mut j = DMatrix::zeros(n, n);
+        for (k, (r, c)) in p.entries().enumerate() {
+            let v = if r == c { -2.0 - r as f64 } else { 0.5 + 0.01 * k as f64 };
+            s.j[k] = v;
+            j[(r, c)] = v;
+        }
+        let mut m = IterationMatrix::<nalgebra::Dyn>::Sparse(Box::new(s));
+        let (a, b) = (1.0, -0.3);
+        assert!(m.factor(a, b));
+        let rhs = DVector::from_fn(n, |i, _| 1.0 + (i % 5) as f64);
+        let mut v = rhs.clone();
+        assert!(m.solve(&mut v));
+        let dense = (DMatrix::identity(n, n) * a + j * b).lu().solve(&rhs).unwrap();
+        assert!((&v - &dense).amax() <= 1e-14 * dense.amax());
     }
 }

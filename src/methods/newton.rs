@@ -42,6 +42,8 @@ where
     j_valid: bool,
     fx: OVector<f64, D>,
     dy: OVector<f64, D>,
+    /// `atol + rtol·|y_p|`, the convergence test's scale.
+    scale: OVector<f64, D>,
     /// Iterations of the last successful solve.
     pub iterations: usize,
 }
@@ -67,6 +69,7 @@ where
             j_valid: false,
             fx: x0.clone(),
             dy: x0.clone(),
+            scale: x0.clone(),
             iterations: 0,
         })
     }
@@ -143,6 +146,7 @@ where
             let work = Work {
                 fx: &mut self.fx,
                 dy: &mut self.dy,
+                scale: &mut self.scale,
             };
             match iterate(f, &mut self.lin, t1, y_p, c, psi, y, d, w, goal, scale_c, work)? {
                 Iterated::Converged(k) => {
@@ -194,6 +198,7 @@ where
 {
     fx: &'b mut OVector<f64, D>,
     dy: &'b mut OVector<f64, D>,
+    scale: &'b mut OVector<f64, D>,
 }
 
 /// Iterate `d ← d + s·M⁻¹(c·f(t₁, y_p + d) − ψ − d)` from `d = 0` until the estimated
@@ -220,8 +225,12 @@ fn iterate<D: LuDim, S: System<D>>(
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
 {
-    let Work { fx, dy } = work;
+    let Work { fx, dy, scale } = work;
     let n = y.len();
+    // the norm's scale at the predictor, the same for every iteration
+    for i in 0..n {
+        scale[i] = w.scale(i, y_p[i]);
+    }
     y.copy_from(y_p);
     d.fill(0.0);
     let mut norm_old: Option<f64> = None;
@@ -261,7 +270,7 @@ where
         }
         let mut acc = 0.0;
         for i in 0..n {
-            let r = dy[i] / w.scale(i, y_p[i]);
+            let r = dy[i] / scale[i];
             acc += r * r;
         }
         let norm = (acc / n.max(1) as f64).sqrt();
@@ -288,8 +297,10 @@ where
                 non_finite: None,
             });
         }
-        *y += &*dy;
-        *d += &*dy;
+        for i in 0..n {
+            y[i] += dy[i];
+            d[i] += dy[i];
+        }
         if norm == 0.0 || rate.is_some_and(|rate| rate / (1.0 - rate) * norm < goal.tol) {
             return Ok(Iterated::Converged(k + 1));
         }

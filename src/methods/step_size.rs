@@ -177,7 +177,9 @@ where
     /// smallest normal number, so that pure relative control of a zero component is not 0/0).
     #[inline]
     pub fn scale(&self, i: usize, x: f64) -> f64 {
-        (self.atol[i] + self.rtol[i] * x.abs()).max(f64::MIN_POSITIVE)
+        let s = self.atol[i] + self.rtol[i] * x.abs();
+        // `s.max(MIN_POSITIVE)` (NaN gives MIN_POSITIVE too), as one `maxsd`
+        if s > f64::MIN_POSITIVE { s } else { f64::MIN_POSITIVE }
     }
 }
 

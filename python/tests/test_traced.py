@@ -323,8 +323,8 @@ def test_bad_functions_raise():
 
 
 def test_gil_released_while_a_traced_model_integrates():
-    f, y0 = brusselator(200)
-    m = reckon.Model(f, 400)
+    f, y0 = brusselator(1000)  # ~0.1 s of native work (the banded LU made 400 states ~0.02 s)
+    m = reckon.Model(f, 2000)
     window = {}
 
     def work():

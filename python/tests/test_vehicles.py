@@ -243,20 +243,29 @@ def test_the_gil_is_released_while_simulate_runs():
     import threading
     import time
 
-    n = 500_000  # about a second of native work
-    t = np.linspace(0, 5000, n + 1)
-    u = np.c_[np.ones(n), 0.1 * np.sin(t[:-1])]
-    done = []
-    worker = threading.Thread(target=lambda: done.append(vehicles.simulate(vehicles.CarLike(), [0, 0, 0, 0], t, u)))
-    start = time.perf_counter()
-    worker.start()
-    last, gap = time.perf_counter(), 0.0
-    while worker.is_alive():  # this thread keeps running Python while the other integrates
-        now = time.perf_counter()
-        gap, last = max(gap, now - last), now
-        time.sleep(0.001)
-    worker.join()
-    total = time.perf_counter() - start
-    assert done and done[0].y.shape == (4, n + 1)
+    def run(n):
+        t = np.linspace(0, 5000, n + 1)
+        u = np.c_[np.ones(n), 0.1 * np.sin(t[:-1])]
+        done = []
+        worker = threading.Thread(
+            target=lambda: done.append(vehicles.simulate(vehicles.CarLike(), [0, 0, 0, 0], t, u)))
+        start = time.perf_counter()
+        worker.start()
+        last, gap = time.perf_counter(), 0.0
+        while worker.is_alive():  # this thread keeps running Python while the other integrates
+            now = time.perf_counter()
+            gap, last = max(gap, now - last), now
+            time.sleep(0.001)
+        worker.join()
+        assert done and done[0].y.shape == (4, n + 1)
+        return gap, time.perf_counter() - start
+
+    # enough native work to see a stall (0.3 s), doubled on a machine fast enough to
+    # finish sooner
+    n = 500_000
+    gap, total = run(n)
+    while total <= 0.3 and n < 8_000_000:
+        n *= 2
+        gap, total = run(n)
     # with the GIL held, this loop would stall for the whole run
-    assert total > 0.3 and gap < 0.5 * total, (gap, total)
+    assert total > 0.3 and gap < 0.5 * total, (n, gap, total)

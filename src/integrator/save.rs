@@ -219,7 +219,6 @@ where
         s
     }
 
-    /// Whether only the end state is kept ([`Save::End`]).
     /// The first output time not saved yet ([`Save::At`]; `None` otherwise or when all
     /// are): a step that ends past it needs its dense polynomial.
     pub(super) fn next_time(&self) -> Option<f64> {
@@ -229,6 +228,7 @@ where
         }
     }
 
+    /// Whether only the end state is kept ([`Save::End`]).
     pub(super) fn end_only(&self) -> bool {
         self.mode == Mode::End
     }

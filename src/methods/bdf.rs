@@ -551,7 +551,6 @@ where
         let mi = goal.max_iters as f64;
         s.safety = (2.0 * mi + 1.0) / (2.0 * mi + n_iter);
         s.controlled = w.controlled;
-        let n = x.len();
         let nc = s.controlled.min(n);
         // the scale at y_{n+1} and the error's weighted RMS (as `norm`) in one pass
         let ce = coef.error[k];

@@ -134,24 +134,12 @@ impl Mass {
         if let Some(&(c, r, v)) = merged.iter().find(|t| !t.2.is_finite()) {
             return bad(format!("entry ({r}, {c}) sums to {v}"));
         }
-        let mut col_ptr = vec![0; n + 1];
-        for &(c, _, _) in &merged {
-            col_ptr[c + 1] += 1;
-        }
-        for j in 0..n {
-            col_ptr[j + 1] += col_ptr[j];
-        }
+        let col_ptr = compressed_starts(n, merged.iter().map(|t| t.0));
         let row_idx = merged.iter().map(|t| t.1).collect();
         let values = merged.iter().map(|t| t.2).collect();
         let pattern = Pattern::from_csc(n, col_ptr, row_idx).expect("sorted, merged, in range");
         merged.sort_unstable_by_key(|&(c, r, _)| (r, c));
-        let mut row_ptr = vec![0; n + 1];
-        for &(_, r, _) in &merged {
-            row_ptr[r + 1] += 1;
-        }
-        for i in 0..n {
-            row_ptr[i + 1] += row_ptr[i];
-        }
+        let row_ptr = compressed_starts(n, merged.iter().map(|t| t.1));
         let col_idx = merged.iter().map(|t| t.0).collect();
         let row_values = merged.iter().map(|t| t.2).collect();
         let by_rows = Pattern::from_csc(n, row_ptr, col_idx).expect("sorted, merged, in range");
@@ -540,4 +528,17 @@ fn svd_null_spaces(m: &DMatrix<f64>) -> NullSpaces {
 /// Singular values at or below `n·ε·σ_max` count as zero.
 fn rank_tol(n: usize, sigma_max: f64) -> f64 {
     n as f64 * f64::EPSILON * sigma_max
+}
+
+/// The start of each of `n` columns (or rows) in a compressed layout, `n + 1` offsets,
+/// from the column (row) of every entry, the entries sorted by it.
+fn compressed_starts(n: usize, keys: impl Iterator<Item = usize>) -> Vec<usize> {
+    let mut ptr = vec![0; n + 1];
+    for k in keys {
+        ptr[k + 1] += 1;
+    }
+    for j in 0..n {
+        ptr[j + 1] += ptr[j];
+    }
+    ptr
 }

@@ -102,10 +102,6 @@ _INSTEAD = {
 _ALIASES = {"LSODA": "Auto"}  # LSODA switches Adams ⇄ BDF; Auto switches RK45 ⇄ BDF
 
 _EPS = np.finfo(float).eps
-_MESSAGES = {
-    0: "The solver successfully reached the end of the integration interval.",
-    1: "A termination event occurred.",
-}
 
 
 class OdeResult(dict):
@@ -136,7 +132,19 @@ class OdeResult(dict):
         return list(self.keys())
 
 
+# every field of a result, in order: copying it sizes the dict once (the native code then
+# only replaces values)
+_RESULT_FIELDS = dict.fromkeys((
+    "t", "y", "sol", "t_events", "y_events", "nfev", "njev", "nlu", "status", "message", "success",
+    "stats", "stiffness", "switches", "method", "jacobian", "error", "traced", "trace_error",
+))
+
+_METHOD_SET = frozenset(METHODS)
+
+
 def _method_name(method: Any) -> str:
+    if type(method) is str and method in _METHOD_SET:  # the common case first
+        return method
     name = method if isinstance(method, str) else getattr(method, "__name__", None)
     if not isinstance(name, str):
         raise ValueError(f"method must be a string, one of {METHODS}; got {method!r}")
@@ -251,9 +259,10 @@ def solve_ivp(
         )
     t0, tf = map(float, t_span)
     y0 = np.asarray(y0)
-    if np.issubdtype(y0.dtype, np.complexfloating):
+    if y0.dtype.kind == "c":
         raise ValueError("complex y0 is not supported by reckon: split it into real and imaginary parts")
-    y0 = y0.astype(float)
+    if y0.dtype.char != "d":
+        y0 = y0.astype(float)
     if y0.ndim != 1:
         raise ValueError("`y0` must be 1-dimensional.")
     n = y0.shape[0]
@@ -292,7 +301,7 @@ def solve_ivp(
         fun = lambda t, x: np.asarray(vfun(t, x[:, None])).ravel()  # noqa: E731
 
     rtol_v = _tolerance(rtol, n, "rtol")
-    if any(r < 100 * _EPS for r in rtol_v):
+    if min(rtol_v) < 100 * _EPS:
         warnings.warn(
             "At least one element of `rtol` is too small. "
             f"Setting `rtol = np.maximum(rtol, {100 * _EPS})`.",
@@ -303,24 +312,22 @@ def solve_ivp(
 
     t_eval_list = None
     if t_eval is not None:
-        t_eval = np.asarray(t_eval, dtype=float)
-        if t_eval.ndim != 1:
-            raise ValueError("`t_eval` must be 1-dimensional.")
-        t_eval_list = t_eval.tolist()
-        lo, hi = min(t0, tf), max(t0, tf)
-        if len(t_eval_list) <= 64:  # plain Python is cheaper than numpy's calls here
-            outside = any(v < lo or v > hi for v in t_eval_list)
-            pairs = zip(t_eval_list, t_eval_list[1:])
-            unsorted = any(b <= a for a, b in pairs) if tf > t0 else any(b >= a for a, b in pairs)
+        if type(t_eval) is list and len(t_eval) <= 64 and all(type(v) is float for v in t_eval):
+            t_eval_list = t_eval  # plain Python is cheaper than numpy's calls here
         else:
-            outside = bool(np.any(t_eval < lo) or np.any(t_eval > hi))
-            d = np.diff(t_eval)
-            unsorted = bool(np.any(d <= 0)) if tf > t0 else bool(np.any(d >= 0))
-        if outside:
-            raise ValueError("Values in `t_eval` are not within `t_span`.")
-        if tf != t0 and unsorted:
-            raise ValueError("Values in `t_eval` are not properly sorted.")
-    evs = _prepare_events(events, args)
+            t_eval = np.asarray(t_eval, dtype=float)
+            if t_eval.ndim != 1:
+                raise ValueError("`t_eval` must be 1-dimensional.")
+            t_eval_list = t_eval.tolist()
+        if t_eval_list:
+            lo, hi = min(t0, tf), max(t0, tf)
+            if min(t_eval_list) < lo or max(t_eval_list) > hi:
+                raise ValueError("Values in `t_eval` are not within `t_span`.")
+            if tf != t0 and len(t_eval_list) > 1:
+                pairs = zip(t_eval_list, t_eval_list[1:])
+                if any(b <= a for a, b in pairs) if tf > t0 else any(b >= a for a, b in pairs):
+                    raise ValueError("Values in `t_eval` are not properly sorted.")
+    evs = [] if events is None else _prepare_events(events, args)
     if max_step is None or math.isinf(max_step):
         max_step = math.inf
 
@@ -333,54 +340,23 @@ def solve_ivp(
         evs,
         max_steps,
     )
-    y0_list = y0.tolist()
+    result = OdeResult(_RESULT_FIELDS)
     if model is not None:
-        r = _solve_traced(model, t0, tf, y0_list, name, rtol_v, atol_v, *common)
+        _solve_traced(model, t0, tf, y0.tolist(), name, rtol_v, atol_v, *common, result)
     else:
-        r = _solve(fun, t0, tf, y0_list, name, rtol_v, atol_v, jac, *common)
-
-    error = r.get("error")
-    status = -1 if error is not None else (1 if r["terminated"] else 0)
-    t, y = r["t"], r["y"]
-    if t_eval is not None and error is None:
-        if len(t_eval) == 0:
-            t, y = t[:0], y[:, :0]
+        _solve(fun, t0, tf, y0.tolist(), name, rtol_v, atol_v, jac, *common, result)
+    status = result["status"]
+    if t_eval_list is not None and status >= 0:
+        if not t_eval_list:
+            result["t"], result["y"] = result["t"][:0], result["y"][:, :0]
         elif status == 1:
             # reckon keeps the stop point after the output times reached; scipy does not
-            t_stop = t[-1]
-            reached = int(np.sum((t_eval - t_stop) * np.sign(tf - t0) <= 0))
-            t, y = t[:reached], y[:, :reached]
-
-    if evs and error is not None:  # no hits are kept from a failed run
-        t_events = [np.empty(0) for _ in evs]
-        y_events = [np.empty(0) for _ in evs]
-    elif evs:
-        t_events = [te for te, _ in r["events"]]
-        y_events = [ye for _, ye in r["events"]]
-    else:
-        t_events = y_events = None
-    stats = r["stats"]
-    return OdeResult(
-        t=t,
-        y=y,
-        sol=r["sol"],
-        t_events=t_events,
-        y_events=y_events,
-        nfev=int(stats.get("rhs_evals", r["fun_calls"])),
-        njev=int(stats.get("jacobian_evals", r["jac_calls"])),
-        nlu=int(stats.get("lu_decompositions", 0)),
-        status=status,
-        message=str(error) if error is not None else _MESSAGES[status],
-        success=status >= 0,
-        stats=stats,
-        stiffness=r["stiffness"],
-        switches=r["switches"],
-        method=name,
-        jacobian=r["jacobian"] if stats.get("jacobian_evals", r["jac_calls"]) else None,
-        error=error,
-        traced=model is not None,
-        trace_error=trace_error,
-    )
+            t_stop = result["t"][-1]
+            reached = int(np.sum((np.asarray(t_eval_list) - t_stop) * np.sign(tf - t0) <= 0))
+            result["t"], result["y"] = result["t"][:reached], result["y"][:, :reached]
+    result["traced"] = model is not None
+    result["trace_error"] = trace_error
+    return result
 
 
 del _errors

@@ -34,7 +34,8 @@ def solve(
     dense: bool,
     events: Sequence[tuple[Callable[..., float], int, float]],
     max_steps: int | None,
-) -> dict[str, Any]: ...
+    out: dict[str, Any],
+) -> None: ...
 
 def solve_traced(
     model: Model,
@@ -51,7 +52,8 @@ def solve_traced(
     dense: bool,
     events: Sequence[tuple[Callable[..., float], int, float]],
     max_steps: int | None,
-) -> dict[str, Any]: ...
+    out: dict[str, Any],
+) -> None: ...
 def _rust_reference(
     problem: str, param: float, method: str, t1: float, rtol: float, atol: float, repeats: int
 ) -> tuple[float, list[float], int]: ...

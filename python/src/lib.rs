@@ -17,7 +17,8 @@ mod errors;
 mod rest;
 mod traced;
 
-use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
+use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use reckon::linalg::LuDim;
@@ -503,13 +504,11 @@ fn with_events<'a, S: System<Dyn>>(
 
 /// Integrate `y' = fun(t, y)`, `y(t0) = y0` to `t1` with `method`, calling `fun` back.
 ///
-/// Returns a dict with `t`, `y` (n × m), `events` (one `(t, y)` pair of lists per event
-/// function), `stats`, `stiffness`, `switches`, `sol` (a [`DenseOutput`] or None),
-/// `terminated` (a terminal event stopped the run), and on an integration failure `error`
-/// (the typed exception, not raised) with `t` and `y` holding the initial point only.
-/// A user function's failure, and invalid input, are raised.
+/// Fills `out` (the caller's `OdeResult`) with scipy's fields and reckon's (see
+/// [`fill_result`]); an integration failure is `status = -1` with `error` the typed
+/// exception, not raised. A user function's failure, and invalid input, are raised.
 #[pyfunction]
-#[pyo3(signature = (fun, t0, t1, y0, method, rtol, atol, jac, first_step, max_step, fixed_step, t_eval, dense, events, max_steps))]
+#[pyo3(signature = (fun, t0, t1, y0, method, rtol, atol, jac, first_step, max_step, fixed_step, t_eval, dense, events, max_steps, out))]
 #[allow(clippy::too_many_arguments)]
 fn solve<'py>(
     py: Python<'py>,
@@ -528,7 +527,8 @@ fn solve<'py>(
     dense: bool,
     events: Vec<(Bound<'py, PyAny>, u64, f64)>,
     max_steps: Option<usize>,
-) -> PyResult<Bound<'py, PyDict>> {
+    out: Bound<'py, PyDict>,
+) -> PyResult<()> {
     let n = y0.len();
     let host = Host::new(py)?;
     let jac = match jac {
@@ -563,20 +563,22 @@ fn solve<'py>(
         return Err(e);
     }
     let terminal: Vec<u64> = events.iter().map(|e| e.1).collect();
-    let out = result_dict(py, result, (t0, &y0_kept), &terminal, dense, jac_kind)?;
-    out.set_item("fun_calls", model.fun_calls.get())?;
-    out.set_item("jac_calls", model.jac_calls.get())?;
-    let stats = out.get_item("stats")?.expect("set by result_dict");
-    stats.set_item("fun_calls", model.fun_calls.get())?;
-    stats.set_item("jac_calls", model.jac_calls.get())?;
-    Ok(out)
+    let fill = Fill {
+        out: &out,
+        method,
+        terminal: &terminal,
+        dense,
+        jac_kind,
+        calls: (model.fun_calls.get(), model.jac_calls.get()),
+    };
+    fill_result(py, fill, result, (t0, &y0_kept))
 }
 
 /// Integrate the traced `model` as [`solve`] integrates a Python function, on its compiled
 /// code: with no event function the GIL is released for the whole solve (other Python
 /// threads run meanwhile); event functions are Python calls, so with them it is held.
 #[pyfunction]
-#[pyo3(signature = (model, t0, t1, y0, method, rtol, atol, first_step, max_step, fixed_step, t_eval, dense, events, max_steps))]
+#[pyo3(signature = (model, t0, t1, y0, method, rtol, atol, first_step, max_step, fixed_step, t_eval, dense, events, max_steps, out))]
 #[allow(clippy::too_many_arguments)]
 fn solve_traced<'py>(
     py: Python<'py>,
@@ -594,7 +596,8 @@ fn solve_traced<'py>(
     dense: bool,
     events: Vec<(Bound<'py, PyAny>, u64, f64)>,
     max_steps: Option<usize>,
-) -> PyResult<Bound<'py, PyDict>> {
+    out: Bound<'py, PyDict>,
+) -> PyResult<()> {
     let m = model.get();
     if y0.len() != m.n {
         return Err(errors::invalid(
@@ -606,16 +609,23 @@ fn solve_traced<'py>(
     let opts = options(
         py, method, rtol, atol, first_step, max_step, fixed_step, t_eval, dense, max_steps,
     )?;
-    let y0_kept = y0.clone();
     let terminal: Vec<u64> = events.iter().map(|e| e.1).collect();
-    let out = if events.is_empty() {
+    let fill = Fill {
+        out: &out,
+        method,
+        terminal: &terminal,
+        dense,
+        jac_kind: "traced",
+        calls: (0, 0),
+    };
+    if events.is_empty() {
         // small models on fixed-size states (stack vectors, a stack LU), as a `model!`
         // model gets in Rust: 2–4× less time per solve than `Dyn` on 2 or 3 states
         macro_rules! fixed {
             ($($n:literal)*) => {
                 match m.n {
-                    $($n => traced_run::<Const<$n>>(py, m, &y0, (t0, t1), method, &opts, dense)?,)*
-                    _ => traced_run::<Dyn>(py, m, &y0, (t0, t1), method, &opts, dense)?,
+                    $($n => traced_run::<Const<$n>>(py, m, &y0, (t0, t1), &opts, fill),)*
+                    _ => traced_run::<Dyn>(py, m, &y0, (t0, t1), &opts, fill),
                 }
             };
         }
@@ -627,42 +637,40 @@ fn solve_traced<'py>(
             inner: &sys,
             host: &host,
         };
-        let problem = with_events(Problem::new(&guarded, DVector::from_vec(y0), (t0, t1)), &events, &host);
+        let problem = with_events(
+            Problem::new(&guarded, DVector::from_column_slice(&y0), (t0, t1)),
+            &events,
+            &host,
+        );
         let result = run(problem, method, &opts);
         if let Some(e) = host.fault.borrow_mut().take() {
             return Err(e);
         }
-        result_dict(py, result, (t0, &y0_kept), &terminal, dense, "traced")?
-    };
-    out.set_item("fun_calls", 0)?;
-    out.set_item("jac_calls", 0)?;
-    let stats = out.get_item("stats")?.expect("set by result_dict");
-    stats.set_item("fun_calls", 0)?;
-    stats.set_item("jac_calls", 0)?;
-    Ok(out)
+        fill_result(py, fill, result, (t0, &y0))
+    }
 }
 
 /// The traced `m` from `y0` over `span` with the GIL released, on a state of dimension
-/// `D`, and its result dict.
-fn traced_run<'py, D: LuDim>(
-    py: Python<'py>,
+/// `D`, into `fill`'s result.
+fn traced_run<D: LuDim>(
+    py: Python<'_>,
     m: &traced::Model,
     y0: &[f64],
     (t0, t1): (f64, f64),
-    method: &str,
     opts: &Options,
-    dense: bool,
-) -> PyResult<Bound<'py, PyDict>>
+    fill: Fill<'_, '_>,
+) -> PyResult<()>
 where
     DefaultAllocator: Allocator<D> + Allocator<D, D>,
     <DefaultAllocator as Allocator<D>>::Buffer<f64>: Send,
 {
+    let method = fill.method;
     let result = py.detach(|| {
         let sys = traced::TracedSystem::new(m);
         let x0 = OVector::<f64, D>::from_iterator_generic(D::from_usize(y0.len()), Const::<1>, y0.iter().copied());
         run(Problem::new(&sys, x0, (t0, t1)), method, opts)
     });
-    result_dict(py, result, (t0, y0), &[], dense, "traced")
+    fill_result(py, fill, result, (t0, y0))
 }
 
 /// A system that gives NaN once a Python event function has failed, so the run stops.
@@ -690,35 +698,72 @@ impl<S: System<Dyn>> System<Dyn> for Guarded<'_, S> {
     }
 }
 
-/// The dict `solve_ivp` reads, from the library's result.
-fn result_dict<'py, D: Dim>(
-    py: Python<'py>,
+/// What a run adds to the result besides the library's solution: the dict to fill (the
+/// caller's `OdeResult`), the method's name as the user gave it, the event functions'
+/// `terminal` counts, whether dense output was asked for, where the Jacobian came from,
+/// and the Python calls of `fun` and `jac` (0 for a traced model).
+struct Fill<'a, 'py> {
+    out: &'a Bound<'py, PyDict>,
+    method: &'a str,
+    terminal: &'a [u64],
+    dense: bool,
+    jac_kind: &'a str,
+    calls: (u64, u64),
+}
+
+/// Fill `f.out` with scipy's fields from the library's result: `t`, `y` (n × m), `sol`,
+/// `t_events`/`y_events` (None without event functions), `nfev`, `njev`, `nlu`,
+/// `status` (0 the end reached, 1 a terminal event, −1 a failure), `message`, `success`,
+/// and reckon's `stats`, `stiffness`, `switches`, `method`, `jacobian`, `error` (the
+/// typed exception of a failure, not raised; `t` and `y` then hold the initial point).
+/// Invalid input and other errors are raised.
+fn fill_result<D: Dim>(
+    py: Python<'_>,
+    f: Fill<'_, '_>,
     result: reckon::Result<Solution<D>>,
     (t0, y0): (f64, &[f64]),
-    terminal_events: &[u64],
-    dense: bool,
-    jac_kind: &str,
-) -> PyResult<Bound<'py, PyDict>>
+) -> PyResult<()>
 where
     DefaultAllocator: Allocator<D>,
 {
+    let out = f.out;
     let n = y0.len();
-    let out = PyDict::new(py);
-    out.set_item("jacobian", jac_kind)?;
+    let stats = PyDict::new(py);
+    let (fun_calls, jac_calls) = f.calls;
+    let events = !f.terminal.is_empty();
+    out.set_item(intern!(py, "method"), f.method)?;
     let sol = match result {
         Ok(sol) => sol,
         Err(e) if errors::is_failure(&e) => {
-            out.set_item("error", errors::to_py(py, &e))?;
-            let y = PyArray1::from_slice(py, y0);
-            out.set_item("t", PyArray1::from_vec(py, vec![t0]))?;
-            out.set_item("y", y.reshape([n, 1])?)?;
-            out.set_item("sol", py.None())?;
-            out.set_item("events", PyList::empty(py))?;
-            out.set_item("terminated", false)?;
-            out.set_item("stats", PyDict::new(py))?;
-            out.set_item("stiffness", py.None())?;
-            out.set_item("switches", PyList::empty(py))?;
-            return Ok(out);
+            let error = errors::to_py(py, &e);
+            out.set_item(intern!(py, "t"), PyArray1::from_vec(py, vec![t0]))?;
+            let y = numpy::ndarray::Array2::from_shape_vec((n, 1), y0.to_vec()).expect("n values");
+            out.set_item(intern!(py, "y"), PyArray2::from_owned_array(py, y))?;
+            out.set_item(intern!(py, "sol"), py.None())?;
+            if events {
+                // no hits are kept from a failed run
+                let empty = || PyArray1::<f64>::zeros(py, [0], false);
+                let none: Vec<_> = f.terminal.iter().map(|_| empty()).collect();
+                out.set_item(intern!(py, "t_events"), PyList::new(py, &none)?)?;
+                out.set_item(intern!(py, "y_events"), PyList::new(py, &none)?)?;
+            } else {
+                out.set_item(intern!(py, "t_events"), py.None())?;
+                out.set_item(intern!(py, "y_events"), py.None())?;
+            }
+            out.set_item(intern!(py, "nfev"), fun_calls)?;
+            out.set_item(intern!(py, "njev"), jac_calls)?;
+            out.set_item(intern!(py, "nlu"), 0)?;
+            out.set_item(intern!(py, "status"), -1)?;
+            out.set_item(intern!(py, "message"), error.value(py).str()?)?;
+            out.set_item(intern!(py, "success"), false)?;
+            stats.set_item(intern!(py, "fun_calls"), fun_calls)?;
+            stats.set_item(intern!(py, "jac_calls"), jac_calls)?;
+            out.set_item(intern!(py, "stats"), stats)?;
+            out.set_item(intern!(py, "stiffness"), py.None())?;
+            out.set_item(intern!(py, "switches"), PyList::empty(py))?;
+            out.set_item(intern!(py, "jacobian"), (jac_calls > 0).then_some(f.jac_kind))?;
+            out.set_item(intern!(py, "error"), error)?;
+            return Ok(());
         }
         Err(e) => return Err(errors::to_py(py, &e)),
     };
@@ -729,66 +774,89 @@ where
             flat[i * m + j] = x[i];
         }
     }
-    out.set_item("t", PyArray1::from_slice(py, &sol.t))?;
-    out.set_item("y", PyArray1::from_vec(py, flat).reshape([n, m])?)?;
-    let mut per_event: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); terminal_events.len()];
+    out.set_item(intern!(py, "t"), PyArray1::from_slice(py, &sol.t))?;
+    let y = numpy::ndarray::Array2::from_shape_vec((n, m), flat).expect("n·m values");
+    out.set_item(intern!(py, "y"), PyArray2::from_owned_array(py, y))?;
+    if f.dense {
+        out.set_item(intern!(py, "sol"), Bound::new(py, DenseOutput::from_solution(&sol, n))?)?;
+    } else {
+        out.set_item(intern!(py, "sol"), py.None())?;
+    }
     let mut terminated = false;
-    for hit in &sol.events {
-        per_event[hit.index].0.push(hit.t);
-        per_event[hit.index].1.extend(hit.x.iter().copied());
-        // the run stopped at the terminal_events[i]-th zero of event i
-        let k = terminal_events[hit.index];
-        terminated |= k > 0 && per_event[hit.index].0.len() as u64 >= k;
-    }
-    let ev = PyList::empty(py);
-    for (ts, ys) in per_event {
-        let k = ts.len();
-        ev.append((
-            PyArray1::from_vec(py, ts),
+    if events {
+        let mut per_event: Vec<(Vec<f64>, Vec<f64>)> = vec![(Vec::new(), Vec::new()); f.terminal.len()];
+        for hit in &sol.events {
+            per_event[hit.index].0.push(hit.t);
+            per_event[hit.index].1.extend(hit.x.iter().copied());
+            // the run stopped at the terminal[i]-th zero of event i
+            let k = f.terminal[hit.index];
+            terminated |= k > 0 && per_event[hit.index].0.len() as u64 >= k;
+        }
+        let (ts, ys) = (PyList::empty(py), PyList::empty(py));
+        for (t, y) in per_event {
+            let k = t.len();
+            ts.append(PyArray1::from_vec(py, t))?;
             if k == 0 {
-                PyArray1::<f64>::zeros(py, [0], false).into_any()
+                ys.append(PyArray1::<f64>::zeros(py, [0], false))?;
             } else {
-                PyArray1::from_vec(py, ys).reshape([k, n])?.into_any()
-            },
-        ))?;
+                let y = numpy::ndarray::Array2::from_shape_vec((k, n), y).expect("k·n values");
+                ys.append(PyArray2::from_owned_array(py, y))?;
+            }
+        }
+        out.set_item(intern!(py, "t_events"), ts)?;
+        out.set_item(intern!(py, "y_events"), ys)?;
+    } else {
+        out.set_item(intern!(py, "t_events"), py.None())?;
+        out.set_item(intern!(py, "y_events"), py.None())?;
     }
-    out.set_item("events", ev)?;
-    out.set_item("terminated", terminated)?;
     let s = sol.stats;
-    let stats = PyDict::new(py);
-    stats.set_item("rhs_evals", s.rhs_evals)?;
-    stats.set_item("jacobian_evals", s.jacobian_evals)?;
-    stats.set_item("time_derivative_evals", s.time_derivative_evals)?;
-    stats.set_item("lu_decompositions", s.lu_decompositions)?;
-    stats.set_item("newton_iterations", s.newton_iterations)?;
-    stats.set_item("accepted", s.accepted)?;
-    stats.set_item("rejected", s.rejected)?;
-    out.set_item("stats", stats)?;
+    out.set_item(intern!(py, "nfev"), s.rhs_evals)?;
+    out.set_item(intern!(py, "njev"), s.jacobian_evals)?;
+    out.set_item(intern!(py, "nlu"), s.lu_decompositions)?;
+    out.set_item(intern!(py, "status"), if terminated { 1 } else { 0 })?;
+    out.set_item(
+        intern!(py, "message"),
+        if terminated {
+            intern!(py, "A termination event occurred.")
+        } else {
+            intern!(
+                py,
+                "The solver successfully reached the end of the integration interval."
+            )
+        },
+    )?;
+    out.set_item(intern!(py, "success"), true)?;
+    stats.set_item(intern!(py, "rhs_evals"), s.rhs_evals)?;
+    stats.set_item(intern!(py, "jacobian_evals"), s.jacobian_evals)?;
+    stats.set_item(intern!(py, "time_derivative_evals"), s.time_derivative_evals)?;
+    stats.set_item(intern!(py, "lu_decompositions"), s.lu_decompositions)?;
+    stats.set_item(intern!(py, "newton_iterations"), s.newton_iterations)?;
+    stats.set_item(intern!(py, "accepted"), s.accepted)?;
+    stats.set_item(intern!(py, "rejected"), s.rejected)?;
+    stats.set_item(intern!(py, "fun_calls"), fun_calls)?;
+    stats.set_item(intern!(py, "jac_calls"), jac_calls)?;
+    out.set_item(intern!(py, "stats"), stats)?;
     match sol.stiffness {
         Some(st) => {
             let d = PyDict::new(py);
-            d.set_item("t", st.t)?;
-            d.set_item("h_lambda", st.h_lambda)?;
-            out.set_item("stiffness", d)?;
+            d.set_item(intern!(py, "t"), st.t)?;
+            d.set_item(intern!(py, "h_lambda"), st.h_lambda)?;
+            out.set_item(intern!(py, "stiffness"), d)?;
         }
-        None => out.set_item("stiffness", py.None())?,
+        None => out.set_item(intern!(py, "stiffness"), py.None())?,
     }
     let sw = PyList::empty(py);
     for w in &sol.switches {
         let d = PyDict::new(py);
-        d.set_item("t", w.t)?;
-        d.set_item("to", w.to)?;
-        d.set_item("reason", w.reason.to_string())?;
+        d.set_item(intern!(py, "t"), w.t)?;
+        d.set_item(intern!(py, "to"), w.to)?;
+        d.set_item(intern!(py, "reason"), w.reason.to_string())?;
         sw.append(d)?;
     }
-    out.set_item("switches", sw)?;
-    out.set_item("method", sol.method)?;
-    if dense {
-        out.set_item("sol", Bound::new(py, DenseOutput::from_solution(&sol, n))?)?;
-    } else {
-        out.set_item("sol", py.None())?;
-    }
-    Ok(out)
+    out.set_item(intern!(py, "switches"), sw)?;
+    out.set_item(intern!(py, "jacobian"), (s.jacobian_evals > 0).then_some(f.jac_kind))?;
+    out.set_item(intern!(py, "error"), py.None())?;
+    Ok(())
 }
 
 /// The same problems solved by reckon's own `model!` models (`reckon::studies::problems`),

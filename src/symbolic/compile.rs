@@ -9,7 +9,7 @@
 //! jump table, and `sin a` with `cos a` of the same `a` is one `sin_cos`.
 
 use super::graph::{Func, Graph, Node};
-use super::jit::{Layout, Native};
+use super::jit::{Layout, Native, NativeFn};
 use crate::jacobian::{Pattern, SparseJacobian};
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -642,6 +642,10 @@ pub struct CompiledVector {
     len: usize,
     parts: Vec<Part>,
     zeros: Vec<usize>,
+    /// Part 0's native function when it is the only part and writes every output (no
+    /// zeros): [`eval`](Self::eval) then makes one checked call (small models evaluate
+    /// their `f` a few nanoseconds apart, so the dispatch shows).
+    single: Option<NativeFn>,
 }
 
 /// One run of outputs of a [`CompiledVector`]: `out[offsets[k]] ← output k of program`.
@@ -695,7 +699,16 @@ impl CompiledVector {
                 .map(|(r, o)| Part::new(Program::new(g, r, p), o.to_vec()))
                 .collect()
         };
-        CompiledVector { len, parts, zeros }
+        let single = match &parts[..] {
+            [part] if zeros.is_empty() => part.native.as_ref().map(|code| code.get(0)),
+            _ => None,
+        };
+        CompiledVector {
+            len,
+            parts,
+            zeros,
+            single,
+        }
     }
 
     /// The same vector evaluated by the interpreter only.
@@ -703,6 +716,7 @@ impl CompiledVector {
         for part in &mut self.parts {
             part.native = None;
         }
+        self.single = None;
         self
     }
 
@@ -724,7 +738,33 @@ impl CompiledVector {
 
     /// `out ← e(t, x, u)`; [`Error::InvalidInput`](crate::Error::InvalidInput) when `out`
     /// does not hold [`len`](Self::len) values.
+    #[inline]
     pub fn eval(&mut self, t: f64, x: &[f64], u: &[f64], out: &mut [f64]) -> crate::Result<()> {
+        if let (Some(code), [part]) = (self.single, &self.parts[..])
+            && out.len() == self.len
+            && x.len() >= part.program.min_x
+            && u.len() >= part.program.min_u
+        {
+            // SAFETY: as below: one part writing every output of `out` (`len` values,
+            // checked), reading `x` and `u` within their checked lengths and the constant
+            // slots of its own template (`single` is part 0's function, kept alive by
+            // its `native`)
+            unsafe {
+                code(
+                    x.as_ptr(),
+                    u.as_ptr(),
+                    t,
+                    out.as_mut_ptr(),
+                    part.program.template.as_ptr(),
+                )
+            };
+            return Ok(());
+        }
+        self.eval_parts(t, x, u, out)
+    }
+
+    /// [`eval`](Self::eval) run by run (and the interpreter where there is no native code).
+    fn eval_parts(&mut self, t: f64, x: &[f64], u: &[f64], out: &mut [f64]) -> crate::Result<()> {
         if out.len() != self.len {
             return Err(crate::Error::invalid(
                 "out",

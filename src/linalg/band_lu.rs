@@ -220,58 +220,166 @@ impl BandLu {
         if self.n == 0 {
             return true;
         }
-        let (n, kl, ku) = (self.n, self.band.lower, self.band.upper);
-        let kv = kl + ku;
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("fma") {
+            // SAFETY: the CPU has FMA (checked above)
+            unsafe { self.sweeps_fma(b) };
+            return true;
+        }
+        self.sweeps(b);
+        true
+    }
+
+    /// [`sweeps`](Self::sweeps) compiled with FMA instructions (the same results: `mul_add`
+    /// is fused either way, in hardware here, in software in the portable build).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "fma")]
+    unsafe fn sweeps_fma(&self, b: &mut [f64]) {
+        self.sweeps(b)
+    }
+
+    /// The two triangular sweeps of [`solve_in_place`](Self::solve_in_place) on `b` of
+    /// length `n ≥ 1`.
+    ///
+    /// Both are chains through every row (the band couples each row to the next), so
+    /// their time is the latency of one row's update. For bands of up to 8 the rows the
+    /// current unknown still updates are carried in registers (a window that moves one
+    /// row per step, the row entering it read once from `b`), so that the chain is one
+    /// fused multiply-subtraction per row and never waits on a store; `U` is kept with a
+    /// unit diagonal (its rows divided by their pivots). Every row receives its updates
+    /// in the same order either way, so the windowed and the plain sweeps agree bit for
+    /// bit.
+    #[inline(always)]
+    fn sweeps(&self, b: &mut [f64]) {
+        let (kl, ku) = (self.band.lower, self.band.upper);
         let ld = 2 * kl + ku + 1;
-        let ab = &self.ab;
-        // Both sweeps are chains through every row (the band couples each row to the
-        // next), so their time is the latency of one row's update: the next row's value
-        // is carried in a register and updated first, and U is stored with a unit
-        // diagonal (its rows divided by their pivots), so that a row costs one multiply
-        // and one subtraction on the chain.
-        // L: the row swaps and multipliers in the order they were made
-        if kl > 0 {
-            let mut cur = b[0];
-            for j in 0..n - 1 {
-                let p = self.pivots[j];
-                if p != j {
-                    std::mem::swap(&mut cur, &mut b[p]);
-                }
-                b[j] = cur;
-                let lm = kl.min(n - 1 - j);
-                let l = &ab[j * ld + kv + 1..j * ld + kv + 1 + lm];
-                let next = b[j + 1] - l[0] * cur;
-                for (r, &m) in b[j + 2..j + 1 + lm].iter_mut().zip(&l[1..]) {
-                    *r -= m * cur;
-                }
-                cur = next;
-            }
-            b[n - 1] = cur;
+        match kl {
+            0 => {}
+            1 => lower::<1>(&self.ab, ld, ku, &self.pivots, b),
+            2 => lower::<2>(&self.ab, ld, ku, &self.pivots, b),
+            3 => lower::<3>(&self.ab, ld, ku, &self.pivots, b),
+            4 => lower::<4>(&self.ab, ld, ku, &self.pivots, b),
+            _ => lower_plain(&self.ab, ld, kl, ku, &self.pivots, b),
         }
         // U = diag(u)·U', U' unit upper with kv super-diagonals: U'·x = diag(1/u)·y
         for (r, &inv) in b.iter_mut().zip(&self.inv_pivot) {
             *r *= inv;
         }
-        if kv == 0 {
-            // diagonal
-            return true;
+        match kl + ku {
+            0 => {}
+            1 => upper::<1>(&self.ab, ld, b),
+            2 => upper::<2>(&self.ab, ld, b),
+            3 => upper::<3>(&self.ab, ld, b),
+            4 => upper::<4>(&self.ab, ld, b),
+            5 => upper::<5>(&self.ab, ld, b),
+            6 => upper::<6>(&self.ab, ld, b),
+            7 => upper::<7>(&self.ab, ld, b),
+            8 => upper::<8>(&self.ab, ld, b),
+            kv => upper_plain(&self.ab, ld, kv, b),
         }
-        let mut next = b[n - 1];
-        for j in (1..n).rev() {
-            let xj = next;
-            b[j] = xj;
-            let col = j * ld + kv;
-            // the row above first: it is the next unknown
-            next = b[j - 1] - ab[col - 1] * xj;
-            let top = j.saturating_sub(kv);
-            let u = &ab[col - (j - top)..col - 1];
-            for (r, &m) in b[top..j - 1].iter_mut().zip(u) {
-                *r -= m * xj;
+    }
+}
+
+/// `L`'s sweep (the row swaps and multipliers in the order they were made) for `kl = K`,
+/// rows `j + 1 ..= j + K` in the window `w`.
+#[inline(always)]
+fn lower<const K: usize>(ab: &[f64], ld: usize, ku: usize, pivots: &[usize], b: &mut [f64]) {
+    let n = b.len();
+    let kv = K + ku;
+    let row = |i: usize| if i < n { b[i] } else { 0.0 };
+    let mut w: [f64; K] = std::array::from_fn(|i| row(i + 1));
+    let mut cur = b[0];
+    for j in 0..n - 1 {
+        let p = pivots[j];
+        if p != j {
+            // p − j − 1 < K: a register swap, unrolled
+            for (i, v) in w.iter_mut().enumerate() {
+                if p == j + 1 + i {
+                    std::mem::swap(&mut cur, v);
+                }
             }
         }
-        b[0] = next;
-        true
+        b[j] = cur;
+        // the multipliers of column j; below row n − 1 they are the band's zeros
+        let at = j * ld + kv + 1;
+        let l: &[f64; K] = ab[at..at + K].try_into().expect("K multipliers");
+        let mut next = [0.0; K];
+        for i in 0..K {
+            next[i] = (-l[i]).mul_add(cur, w[i]);
+        }
+        cur = next[0];
+        // the window moves down one row (built element by element: it stays in registers)
+        let entering = if j + 1 + K < n { b[j + 1 + K] } else { 0.0 };
+        w = std::array::from_fn(|i| if i + 1 < K { next[i + 1] } else { entering });
     }
+    b[n - 1] = cur;
+}
+
+/// `L`'s sweep for any `kl`, the rows below in `b`.
+#[inline(always)]
+fn lower_plain(ab: &[f64], ld: usize, kl: usize, ku: usize, pivots: &[usize], b: &mut [f64]) {
+    let n = b.len();
+    let kv = kl + ku;
+    let mut cur = b[0];
+    for j in 0..n - 1 {
+        let p = pivots[j];
+        if p != j {
+            std::mem::swap(&mut cur, &mut b[p]);
+        }
+        b[j] = cur;
+        let lm = kl.min(n - 1 - j);
+        let l = &ab[j * ld + kv + 1..j * ld + kv + 1 + lm];
+        let next = (-l[0]).mul_add(cur, b[j + 1]);
+        for (r, &m) in b[j + 2..j + 1 + lm].iter_mut().zip(&l[1..]) {
+            *r = (-m).mul_add(cur, *r);
+        }
+        cur = next;
+    }
+    b[n - 1] = cur;
+}
+
+/// `U'·x = y` from the last row up for `kl + ku = K`, rows `j − 1, …, j − K` in the
+/// window `w`.
+#[inline(always)]
+fn upper<const K: usize>(ab: &[f64], ld: usize, b: &mut [f64]) {
+    let n = b.len();
+    let mut w: [f64; K] = std::array::from_fn(|i| if i + 1 < n { b[n - 2 - i] } else { 0.0 });
+    let mut x = b[n - 1];
+    for j in (1..n).rev() {
+        b[j] = x;
+        // U'(j − 1 − i, j) at col − 1 − i; above row 0 they are the band's zeros
+        let col = j * ld + K;
+        let u: &[f64; K] = ab[col - K..col].try_into().expect("K entries of U'");
+        let mut next = [0.0; K];
+        for i in 0..K {
+            next[i] = (-u[K - 1 - i]).mul_add(x, w[i]);
+        }
+        x = next[0];
+        // the window moves up one row (built element by element: it stays in registers)
+        let entering = if j > K { b[j - 1 - K] } else { 0.0 };
+        w = std::array::from_fn(|i| if i + 1 < K { next[i + 1] } else { entering });
+    }
+    b[0] = x;
+}
+
+/// `U'·x = y` for any `kv`, the rows above in `b`.
+#[inline(always)]
+fn upper_plain(ab: &[f64], ld: usize, kv: usize, b: &mut [f64]) {
+    let n = b.len();
+    let mut next = b[n - 1];
+    for j in (1..n).rev() {
+        let xj = next;
+        b[j] = xj;
+        let col = j * ld + kv;
+        // the row above first: it is the next unknown
+        next = (-ab[col - 1]).mul_add(xj, b[j - 1]);
+        let top = j.saturating_sub(kv);
+        let u = &ab[col - (j - top)..col - 1];
+        for (r, &m) in b[top..j - 1].iter_mut().zip(u) {
+            *r = (-m).mul_add(xj, *r);
+        }
+    }
+    b[0] = next;
 }
 
 #[cfg(test)]
@@ -297,6 +405,12 @@ mod tests {
             (30, 2, 2),
             (40, 1, 5),
             (25, 6, 1),
+            // windows longer than the matrix, the widest window, and past it
+            (2, 1, 1),
+            (3, 2, 2),
+            (5, 4, 0),
+            (30, 4, 4),
+            (20, 5, 4),
         ] {
             let mut entries = Vec::new();
             for j in 0..n {
@@ -342,6 +456,54 @@ mod tests {
                 e_band <= 10.0 * e_dense + 1e-13 * x.amax(),
                 "n {n} kl {kl} ku {ku}: {e_band:e} against {e_dense:e}"
             );
+        }
+    }
+
+    /// The sweeps with their window in registers give the plain sweeps' bits.
+    #[test]
+    fn windowed_sweeps_equal_the_plain_ones() {
+        let mut seed = 11u64;
+        let mut rnd = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        };
+        for &(n, kl, ku) in &[
+            (1usize, 1usize, 1usize),
+            (3, 2, 2),
+            (50, 1, 1),
+            (50, 2, 2),
+            (41, 4, 3),
+            (33, 3, 5),
+            (9, 2, 6),
+        ] {
+            let mut entries = Vec::new();
+            for j in 0..n {
+                for i in j.saturating_sub(ku)..(j + kl + 1).min(n) {
+                    entries.push((i, j));
+                }
+            }
+            let p = Pattern::from_entries(n, &entries).unwrap();
+            // small diagonals: rows are swapped
+            let vals: Vec<f64> = p
+                .entries()
+                .map(|(i, j)| if i == j { 0.1 * rnd() } else { rnd() })
+                .collect();
+            let mut lu = BandLu::new(&p).unwrap();
+            assert!(lu.factor(&vals));
+            assert!(lu.pivots.iter().enumerate().any(|(j, &p)| p != j) || n == 1);
+            let b: Vec<f64> = (0..n).map(|_| rnd()).collect();
+            let mut windowed = b.clone();
+            assert!(lu.solve_in_place(&mut windowed));
+            let mut plain = b;
+            let Band { lower: kl, upper: ku } = lu.band();
+            let ld = 2 * kl + ku + 1;
+            super::lower_plain(&lu.ab, ld, kl, ku, &lu.pivots, &mut plain);
+            for (r, &inv) in plain.iter_mut().zip(&lu.inv_pivot) {
+                *r *= inv;
+            }
+            super::upper_plain(&lu.ab, ld, kl + ku, &mut plain);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&windowed), bits(&plain), "n {n} kl {kl} ku {ku}");
         }
     }
 

@@ -552,9 +552,8 @@ fn solve<'py>(
         fun_calls: Cell::new(0),
         jac_calls: Cell::new(0),
     };
-    let y0_kept = y0.clone();
     let problem = with_events(
-        Problem::new(&model, DVector::from_vec(y0), (t0, t1)),
+        Problem::new(&model, DVector::from_column_slice(&y0), (t0, t1)),
         &events,
         &model.host,
     );
@@ -571,7 +570,7 @@ fn solve<'py>(
         jac_kind,
         calls: (model.fun_calls.get(), model.jac_calls.get()),
     };
-    fill_result(py, fill, result, (t0, &y0_kept))
+    fill_result(py, fill, result, (t0, &y0))
 }
 
 /// Integrate the traced `model` as [`solve`] integrates a Python function, on its compiled

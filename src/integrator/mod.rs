@@ -601,8 +601,7 @@ where
     /// for methods whose [`Method::crossing_test`] is on (the implicit ones).
     fn crossing_factor(&mut self, t: f64, h: f64) -> Option<f64> {
         let mut first: Option<(usize, f64)> = None;
-        for i in 0..self.x.len() {
-            let (a, b) = (self.x[i], self.x_new[i]);
+        for (i, (&a, &b)) in self.x.as_slice().iter().zip(self.x_new.as_slice()).enumerate() {
             let crossed = a * b < 0.0 || (a == 0.0 && b != 0.0);
             if crossed && b.abs() > CROSSING_NOISE * self.control.w.scale(i, b) {
                 let theta = a / (a - b);
@@ -988,6 +987,10 @@ pub(super) fn has_non_finite<D: Dim>(x: &OVector<f64, D>) -> bool
 where
     DefaultAllocator: Allocator<D>,
 {
+    if x.len() > 8 {
+        // past a few components the sum's chain of additions is the slower test
+        return crate::model::any_non_finite(x.as_slice());
+    }
     let s = x.iter().fold(-0.0, |a, v| a + v);
     // (`s − s` on purpose: one subtraction, NaN exactly for a non-finite `s`)
     #[allow(clippy::eq_op)]

@@ -7,7 +7,7 @@ use super::newton::{self, Goal, Newton};
 use super::{Method, Outcome, Step, Stepper};
 use crate::error::Result;
 use crate::linalg::LuDim;
-use crate::methods::step_size::Weights;
+use crate::methods::step_size::{Weights, sum_sq};
 use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
@@ -360,7 +360,7 @@ where
     /// Weighted RMS of `c·v` in the scale of the accepted state.
     fn norm(&self, c: f64, v: &OVector<f64, D>) -> f64 {
         let n = self.controlled.min(v.len());
-        let s: f64 = (0..n).map(|i| (c * v[i] / self.scale[i]).powi(2)).sum();
+        let s = sum_sq(c, &v.as_slice()[..n], &self.scale.as_slice()[..n]);
         (s / n.max(1) as f64).sqrt()
     }
 }
@@ -554,14 +554,9 @@ where
         let nc = s.controlled.min(n);
         // the scale at y_{n+1} and the error's weighted RMS (as `norm`) in one pass
         let ce = coef.error[k];
-        let mut acc = 0.0;
-        for i in 0..n {
-            let sc = w.scale(i, x_new[i]) * factor;
-            s.scale[i] = sc;
-            if i < nc {
-                acc += (ce * s.d[i] / sc).powi(2);
-            }
-        }
+        w.scales(x_new.as_slice(), s.scale.as_mut_slice());
+        s.scale *= factor;
+        let acc = sum_sq(ce, &s.d.as_slice()[..nc], &s.scale.as_slice()[..nc]);
         if !adaptive {
             return Ok(Outcome::Done { err: 0.0 });
         }

@@ -18,7 +18,7 @@ use super::Failure;
 use super::iteration::IterationMatrix;
 use crate::error::Result;
 use crate::linalg::LuDim;
-use crate::methods::step_size::Weights;
+use crate::methods::step_size::{Weights, sum_sq};
 use crate::model::{Eval, System};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, OVector};
@@ -228,9 +228,7 @@ where
     let Work { fx, dy, scale } = work;
     let n = y.len();
     // the norm's scale at the predictor, the same for every iteration
-    for i in 0..n {
-        scale[i] = w.scale(i, y_p[i]);
-    }
+    w.scales(y_p.as_slice(), scale.as_mut_slice());
     y.copy_from(y_p);
     d.fill(0.0);
     let mut norm_old: Option<f64> = None;
@@ -258,26 +256,20 @@ where
         f.stats.newton_iterations += 1;
         match f.mass {
             None => {
-                for i in 0..n {
-                    dy[i] = c * fx[i] - psi[i] - d[i];
+                let (fx, psi, d) = (fx.as_slice(), psi.as_slice(), d.as_slice());
+                for (((r, &fx), &psi), &d) in dy.as_mut_slice().iter_mut().zip(fx).zip(psi).zip(d) {
+                    *r = c * fx - psi - d;
                 }
             }
             Some(m) => m.residual(c, fx.as_slice(), psi.as_slice(), d.as_slice(), dy.as_mut_slice()),
         }
         lu.solve(dy);
-        if s != 1.0 {
-            *dy *= s;
-        }
-        let mut acc = 0.0;
-        for i in 0..n {
-            let r = dy[i] / scale[i];
-            acc += r * r;
-        }
-        let norm = (acc / n.max(1) as f64).sqrt();
+        // the correction is s·dy (s = 1 exactly when the LU is at this c)
+        let norm = (sum_sq(s, dy.as_slice(), scale.as_slice()) / n.max(1) as f64).sqrt();
         last = norm;
         // a correction below the rounding of every component cannot change the iterate:
         // it is as converged as floating point allows (x₀ = 1e12, say, with a tiny step)
-        if norm.is_finite() && (0..n).all(|i| y[i] + dy[i] == y[i]) {
+        if norm.is_finite() && (0..n).all(|i| y[i] + s * dy[i] == y[i]) {
             return Ok(Iterated::Converged(k + 1));
         }
         if !norm.is_finite() {
@@ -297,9 +289,10 @@ where
                 non_finite: None,
             });
         }
-        for i in 0..n {
-            y[i] += dy[i];
-            d[i] += dy[i];
+        for ((y, d), &dy) in y.as_mut_slice().iter_mut().zip(d.as_mut_slice()).zip(dy.as_slice()) {
+            let dy = s * dy;
+            *y += dy;
+            *d += dy;
         }
         if norm == 0.0 || rate.is_some_and(|rate| rate / (1.0 - rate) * norm < goal.tol) {
             return Ok(Iterated::Converged(k + 1));

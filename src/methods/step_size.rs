@@ -181,6 +181,39 @@ where
         // `s.max(MIN_POSITIVE)` (NaN gives MIN_POSITIVE too), as one `maxsd`
         if s > f64::MIN_POSITIVE { s } else { f64::MIN_POSITIVE }
     }
+
+    /// Every component's [`scale`](Self::scale) at `x`, into `out`.
+    #[inline]
+    pub(crate) fn scales(&self, x: &[f64], out: &mut [f64]) {
+        let (atol, rtol) = (self.atol.as_slice(), self.rtol.as_slice());
+        for (((s, &x), &a), &r) in out.iter_mut().zip(x).zip(atol).zip(rtol) {
+            let v = a + r * x.abs();
+            *s = if v > f64::MIN_POSITIVE { v } else { f64::MIN_POSITIVE };
+        }
+    }
+}
+
+/// `Σ (k·v_i / s_i)²` in four interleaved partial sums (term `i` into sum `i mod 4`),
+/// added as `(σ₀ + σ₁) + (σ₂ + σ₃)`: four independent chains of additions instead of
+/// one, the same value as the plain sum in order for up to three terms.
+#[inline]
+pub(crate) fn sum_sq(k: f64, v: &[f64], s: &[f64]) -> f64 {
+    let n = v.len().min(s.len());
+    let (v, s) = (&v[..n], &s[..n]);
+    let mut acc = [0.0f64; 4];
+    let (vc, sc) = (v.chunks_exact(4), s.chunks_exact(4));
+    let (vr, sr) = (vc.remainder(), sc.remainder());
+    for (v, s) in vc.zip(sc) {
+        for j in 0..4 {
+            let r = k * v[j] / s[j];
+            acc[j] += r * r;
+        }
+    }
+    for (j, (&v, &s)) in vr.iter().zip(sr).enumerate() {
+        let r = k * v / s;
+        acc[j] += r * r;
+    }
+    (acc[0] + acc[1]) + (acc[2] + acc[3])
 }
 
 /// `ln 1e-4`: `dopri5.f` keeps `err_old ≥ 1e-4`.
@@ -316,4 +349,64 @@ where
         (0.01 / der12).powf(1.0 / iord as f64)
     };
     Ok((100.0 * h).min(h1).min(h_max))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sum_sq;
+    use crate::model::any_non_finite;
+
+    /// The plain sum in order, the value `sum_sq` replaced.
+    fn in_order(k: f64, v: &[f64], s: &[f64]) -> f64 {
+        v.iter().zip(s).fold(0.0, |acc, (&v, &s)| {
+            let r = k * v / s;
+            acc + r * r
+        })
+    }
+
+    #[test]
+    fn sum_sq_is_the_plain_sum_up_to_three_terms_and_rounding_past() {
+        let v: Vec<f64> = (0..103)
+            .map(|i| (i as f64 * 0.37).sin() * 10f64.powi(i % 7 - 3))
+            .collect();
+        let s: Vec<f64> = (0..103).map(|i| 1e-6 + 1e-3 * (i as f64 * 0.11).cos().abs()).collect();
+        for n in 0..=3 {
+            assert_eq!(
+                sum_sq(0.7, &v[..n], &s[..n]).to_bits(),
+                in_order(0.7, &v[..n], &s[..n]).to_bits()
+            );
+        }
+        for n in [4, 5, 6, 7, 8, 9, 64, 103] {
+            let (a, b) = (sum_sq(1.3, &v[..n], &s[..n]), in_order(1.3, &v[..n], &s[..n]));
+            // the sums of the same non-negative terms in two orders: n·ε apart at most
+            assert!((a - b).abs() <= n as f64 * f64::EPSILON * b, "n = {n}: {a} vs {b}");
+            assert!(a > 0.0);
+        }
+        // exactly: four terms (1/1)², (2/1)², (3/1)², (4/2)² with k = 1 → (1 + 4) + (9 + 4)
+        assert_eq!(sum_sq(1.0, &[1.0, 2.0, 3.0, 4.0], &[1.0, 1.0, 1.0, 2.0]), 18.0);
+        // k scales every term: k = 2 quadruples the sum
+        assert_eq!(sum_sq(2.0, &[1.0, 2.0, 3.0, 4.0, 5.0], &[1.0; 5]), 4.0 * 55.0);
+        // a NaN or ∞ term is not lost in a partial sum
+        assert!(sum_sq(1.0, &[1.0, 2.0, 3.0, 4.0, f64::NAN], &[1.0; 5]).is_nan());
+        assert_eq!(
+            sum_sq(1.0, &[1.0, f64::INFINITY, 3.0, 4.0, 5.0], &[1.0; 5]),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn any_non_finite_finds_every_bad_value_at_every_place() {
+        let finite = [0.0, -0.0, 1.0, f64::MAX, f64::MIN, f64::MIN_POSITIVE, 5e-324, -5e-324];
+        for n in 0..40 {
+            let v: Vec<f64> = (0..n).map(|i| finite[i % finite.len()]).collect();
+            assert!(!any_non_finite(&v), "{n} finite values");
+            for bad in [f64::NAN, -f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                for at in 0..n {
+                    let mut w = v.clone();
+                    w[at] = bad;
+                    assert!(any_non_finite(&w), "{bad} at {at} of {n}");
+                }
+            }
+        }
+    }
 }

@@ -265,7 +265,15 @@ pub(crate) fn any_non_finite(v: &[f64]) -> bool {
 /// `Ok` when every value is finite, else [`Error::NonFinite`] naming the first bad one.
 #[inline]
 pub(crate) fn finite(v: &[f64], t: f64, quantity: Quantity) -> Result<()> {
-    if !any_non_finite(v) {
+    // a few values: a test per value that can stop early is faster (measured on
+    // Robertson's 3 states with an opaque `f`: 7 % of the whole BDF solve); past
+    // them the OR-fold, which the compiler vectorises
+    let bad = if v.len() > 8 {
+        any_non_finite(v)
+    } else {
+        v.iter().any(|a| !a.is_finite())
+    };
+    if !bad {
         return Ok(());
     }
     let component = v.iter().position(|a| !a.is_finite()).unwrap_or(0);

@@ -137,7 +137,7 @@ impl BandLu {
     pub fn factor(&mut self, values: &[f64]) -> bool {
         assert_eq!(values.len(), self.at.len(), "BandLu::factor: one value per non-zero");
         self.factored = false;
-        if !values.iter().all(|v| v.is_finite()) {
+        if crate::model::any_non_finite(values) {
             return false;
         }
         self.ab.fill(0.0);
@@ -208,7 +208,10 @@ impl BandLu {
             }
         }
         // a pivot that overflowed to ∞ or a NaN from ∞ − ∞ shows on the diagonal of U
-        self.inv_pivot.iter().all(|r| r.is_finite() && *r != 0.0) && ab.iter().all(|v| v.is_finite())
+        // (OR-folds over every value, which the compiler vectorises, not tests per value)
+        !self.inv_pivot.iter().fold(false, |bad, r| bad | (*r == 0.0))
+            && !crate::model::any_non_finite(&self.inv_pivot)
+            && !crate::model::any_non_finite(ab)
     }
 
     /// `b ← A⁻¹·b` (`dgbtrs`); `false` (and `b` untouched) when there is no
@@ -513,6 +516,10 @@ mod tests {
         assert!(!lu.factor(&[1.0, 2.0, 2.0, 4.0]));
         assert!(!lu.solve_in_place(&mut [1.0, 1.0]));
         assert!(!lu.factor(&[1.0, f64::NAN, 0.0, 1.0]));
+        assert!(!lu.factor(&[1.0, 0.0, f64::NEG_INFINITY, 1.0]));
+        // finite values whose elimination overflows: U(1, 1) = 1e308 + 1e308 = ∞
+        assert!(!lu.factor(&[1.0, -1.0, 1e308, 1e308]));
+        assert!(lu.factor(&[1.0, -1.0, 1e307, 1e307]));
         assert!(lu.factor(&[0.0, 2.0, 1.0, 0.0])); // needs the row swap
         let mut b = [4.0, 2.0]; // [[0, 1], [2, 0]]·(1, 4)
         assert!(lu.solve_in_place(&mut b));

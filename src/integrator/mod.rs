@@ -989,7 +989,7 @@ where
 {
     if x.len() > 8 {
         // past a few components the sum's chain of additions is the slower test
-        return crate::model::any_non_finite(x.as_slice());
+        return crate::linalg::any_non_finite(x.as_slice());
     }
     let s = x.iter().fold(-0.0, |a, v| a + v);
     // (`s − s` on purpose: one subtraction, NaN exactly for a non-finite `s`)

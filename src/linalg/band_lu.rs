@@ -137,7 +137,7 @@ impl BandLu {
     pub fn factor(&mut self, values: &[f64]) -> bool {
         assert_eq!(values.len(), self.at.len(), "BandLu::factor: one value per non-zero");
         self.factored = false;
-        if crate::model::any_non_finite(values) {
+        if super::any_non_finite(values) {
             return false;
         }
         self.ab.fill(0.0);
@@ -210,8 +210,8 @@ impl BandLu {
         // a pivot that overflowed to ∞ or a NaN from ∞ − ∞ shows on the diagonal of U
         // (OR-folds over every value, which the compiler vectorises, not tests per value)
         !self.inv_pivot.iter().fold(false, |bad, r| bad | (*r == 0.0))
-            && !crate::model::any_non_finite(&self.inv_pivot)
-            && !crate::model::any_non_finite(ab)
+            && !super::any_non_finite(&self.inv_pivot)
+            && !super::any_non_finite(ab)
     }
 
     /// `b ← A⁻¹·b` (`dgbtrs`); `false` (and `b` untouched) when there is no

@@ -16,6 +16,16 @@ mod sparse_lu;
 pub use band_lu::{Band, BandLu};
 pub use sparse_lu::SparseLu;
 
+/// Whether some `v` is NaN or ±∞ (every exponent bit set): an OR over all of them
+/// without an early exit, which the compiler vectorises (an `all(is_finite)` stops at
+/// each element to branch).
+#[inline]
+pub(crate) fn any_non_finite(v: &[f64]) -> bool {
+    const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
+    v.iter()
+        .fold(false, |any, a| any | (a.to_bits() & EXPONENT == EXPONENT))
+}
+
 /// A factorisation of a square matrix that can solve `M·y = b` in place.
 #[doc(hidden)]
 pub trait Lu<D: nalgebra::Dim>: Sized

@@ -354,7 +354,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::sum_sq;
-    use crate::model::any_non_finite;
+    use crate::linalg::any_non_finite;
 
     /// The plain sum in order, the value `sum_sq` replaced.
     fn in_order(k: f64, v: &[f64], s: &[f64]) -> f64 {

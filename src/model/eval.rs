@@ -252,16 +252,6 @@ where
     }
 }
 
-/// Whether some `v` is NaN or ±∞ (every exponent bit set): an OR over all of them
-/// without an early exit, which the compiler vectorises (an `all(is_finite)` stops at
-/// each element to branch).
-#[inline]
-pub(crate) fn any_non_finite(v: &[f64]) -> bool {
-    const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
-    v.iter()
-        .fold(false, |any, a| any | (a.to_bits() & EXPONENT == EXPONENT))
-}
-
 /// `Ok` when every value is finite, else [`Error::NonFinite`] naming the first bad one.
 #[inline]
 pub(crate) fn finite(v: &[f64], t: f64, quantity: Quantity) -> Result<()> {
@@ -269,7 +259,7 @@ pub(crate) fn finite(v: &[f64], t: f64, quantity: Quantity) -> Result<()> {
     // Robertson's 3 states with an opaque `f`: 7 % of the whole BDF solve); past
     // them the OR-fold, which the compiler vectorises
     let bad = if v.len() > 8 {
-        any_non_finite(v)
+        crate::linalg::any_non_finite(v)
     } else {
         v.iter().any(|a| !a.is_finite())
     };

@@ -20,7 +20,7 @@ pub mod params;
 #[doc(hidden)]
 pub use eval::Eval;
 pub use eval::Stats;
-pub(crate) use eval::{any_non_finite, finite, write_eps};
+pub(crate) use eval::{finite, write_eps};
 pub use flow::{DualFlow, Flow};
 pub use lti::Lti;
 pub use params::ParamModel;

@@ -980,8 +980,9 @@ pub(super) fn grid_point(k: u64, signed_h: f64) -> f64 {
 
 /// Whether `x` holds a NaN or ±∞. The sum `s = Σ v` is non-finite (`s − s` is NaN)
 /// whenever some `v` is, and for finite `v` only when it overflows: that rare case is
-/// settled component by component, out of line. The sum starts from −0, which
-/// `−0 + a = a` lets the compiler drop (n − 1 additions, a subtraction and a compare).
+/// settled by [`any_non_finite`](crate::linalg::any_non_finite), which past 8
+/// components is the whole test. The sum starts from −0, which `−0 + a = a` lets the
+/// compiler drop (n − 1 additions, a subtraction and a compare).
 #[inline(always)]
 pub(super) fn has_non_finite<D: Dim>(x: &OVector<f64, D>) -> bool
 where
@@ -995,14 +996,7 @@ where
     // (`s − s` on purpose: one subtraction, NaN exactly for a non-finite `s`)
     #[allow(clippy::eq_op)]
     let bad = (s - s).is_nan();
-    bad && any_non_finite(x.as_slice())
-}
-
-/// Whether some `v` is NaN or ±∞ (the exact test behind [`has_non_finite`]).
-#[cold]
-#[inline(never)]
-fn any_non_finite(x: &[f64]) -> bool {
-    x.iter().any(|v| !v.is_finite())
+    bad && crate::linalg::any_non_finite(x.as_slice())
 }
 
 /// Hairer's first step from `(t0, x0)` with `f0 = f(t0, x0)` for an estimate of order

@@ -16,12 +16,16 @@ mod sparse_lu;
 pub use band_lu::{Band, BandLu};
 pub use sparse_lu::SparseLu;
 
-/// Whether some `v` is NaN or ±∞ (every exponent bit set): an OR over all of them
-/// without an early exit, which the compiler vectorises (an `all(is_finite)` stops at
-/// each element to branch).
+/// Whether some `v` is NaN or ±∞ (every exponent bit set). Up to 8 values a test per
+/// value that stops at the first bad one (measured on Robertson's 3 states with an
+/// opaque `f`: the fold cost 7 % of the whole BDF solve); past them an OR over all of
+/// them without an early exit, which the compiler vectorises.
 #[inline]
 pub(crate) fn any_non_finite(v: &[f64]) -> bool {
     const EXPONENT: u64 = 0x7ff0_0000_0000_0000;
+    if v.len() <= 8 {
+        return v.iter().any(|a| !a.is_finite());
+    }
     v.iter()
         .fold(false, |any, a| any | (a.to_bits() & EXPONENT == EXPONENT))
 }
@@ -127,4 +131,25 @@ impl Lu<Dyn> for DynLu {
 
 impl LuDim for Dyn {
     type Lu = DynLu;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::any_non_finite;
+
+    #[test]
+    fn any_non_finite_finds_every_bad_value_at_every_place() {
+        let finite = [0.0, -0.0, 1.0, f64::MAX, f64::MIN, f64::MIN_POSITIVE, 5e-324, -5e-324];
+        for n in 0..40 {
+            let v: Vec<f64> = (0..n).map(|i| finite[i % finite.len()]).collect();
+            assert!(!any_non_finite(&v), "{n} finite values");
+            for bad in [f64::NAN, -f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                for at in 0..n {
+                    let mut w = v.clone();
+                    w[at] = bad;
+                    assert!(any_non_finite(&w), "{bad} at {at} of {n}");
+                }
+            }
+        }
+    }
 }

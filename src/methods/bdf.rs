@@ -552,10 +552,10 @@ where
         s.safety = (2.0 * mi + 1.0) / (2.0 * mi + n_iter);
         s.controlled = w.controlled;
         let nc = s.controlled.min(n);
-        // the scale at y_{n+1} and the error's weighted RMS (as `norm`) in one pass
+        // the scale at y_{n+1} (times the tolerance factor) in one pass, the error's
+        // weighted RMS (as `norm`) in a second
         let ce = coef.error[k];
-        w.scales(x_new.as_slice(), s.scale.as_mut_slice());
-        s.scale *= factor;
+        w.scales(x_new.as_slice(), factor, s.scale.as_mut_slice());
         let acc = sum_sq(ce, &s.d.as_slice()[..nc], &s.scale.as_slice()[..nc]);
         if !adaptive {
             return Ok(Outcome::Done { err: 0.0 });

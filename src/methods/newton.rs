@@ -228,7 +228,7 @@ where
     let Work { fx, dy, scale } = work;
     let n = y.len();
     // the norm's scale at the predictor, the same for every iteration
-    w.scales(y_p.as_slice(), scale.as_mut_slice());
+    w.scales(y_p.as_slice(), 1.0, scale.as_mut_slice());
     y.copy_from(y_p);
     d.fill(0.0);
     let mut norm_old: Option<f64> = None;

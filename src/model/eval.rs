@@ -255,15 +255,7 @@ where
 /// `Ok` when every value is finite, else [`Error::NonFinite`] naming the first bad one.
 #[inline]
 pub(crate) fn finite(v: &[f64], t: f64, quantity: Quantity) -> Result<()> {
-    // a few values: a test per value that can stop early is faster (measured on
-    // Robertson's 3 states with an opaque `f`: 7 % of the whole BDF solve); past
-    // them the OR-fold, which the compiler vectorises
-    let bad = if v.len() > 8 {
-        crate::linalg::any_non_finite(v)
-    } else {
-        v.iter().any(|a| !a.is_finite())
-    };
-    if !bad {
+    if !crate::linalg::any_non_finite(v) {
         return Ok(());
     }
     let component = v.iter().position(|a| !a.is_finite()).unwrap_or(0);

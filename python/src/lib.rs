@@ -7,10 +7,13 @@
 //! call the user's event functions. The argument handling with scipy's names and the
 //! result object live in `reckon/__init__.py`.
 //!
-//! A Python exception raised by a user function (or a wrong-length or non-finite
-//! return) is kept in [`PyModel::fault`]; from then on every call returns NaN without
-//! calling Python, so the library stops at once with a typed error, and [`solve`]
-//! raises the kept exception instead of that error.
+//! A Python exception raised by a user function (or a wrong-length return, or a
+//! non-finite one inside a difference quotient or from `jac`) is kept in the [`Host`]'s
+//! `fault`; from then on every call returns NaN without calling Python, so the library
+//! stops at once with a typed error, and [`solve`] raises the kept exception instead of
+//! that error. A non-finite `fun(t, y)` at a trial state is handed to the library as it
+//! is, which rejects the step and retries shorter, as for a traced model; should the run
+//! end on it, [`solve`] raises the last such return as `reckon.NonFinite`.
 
 mod ensemble;
 mod errors;
@@ -30,11 +33,53 @@ use reckon::{Direction, Event, Options, Problem, Save, Solution, System};
 use std::cell::{Cell, RefCell};
 
 /// The user's Jacobian: a callable `jac(t, y)`, a constant matrix, or none (forward
-/// differences of `fun`).
+/// differences of `fun`, [`Differences`]).
 enum Jac<'py> {
     Callable(Bound<'py, PyAny>),
     Constant(DMatrix<f64>),
-    Differences,
+    Differences(Differences),
+}
+
+/// scipy's `num_jac` (`scipy/integrate/_ivp/common.py`, as its BDF and Radau use it):
+/// column `j` of `∂f/∂y` is `(f(y + h_j·e_j) − f(y))/h_j` with
+/// `h_j = factor_j·sign(f_j)·max(threshold_j, |y_j|)` (`threshold` = `atol`), and each
+/// column's `factor_j` (from `√ε`) adapted across calls: a difference at the roundoff
+/// level of `f` (below `ε^0.875` of it) is retried with a 10× longer step that is kept
+/// if it resolves more, below `ε^0.75` the next call's factor grows 10×, above `ε^0.25` it
+/// shrinks 10×, never below `1000·ε` (nor, here, above 1: `h_j` at most the component's
+/// scale). A fixed `√ε·max(|y_j|, 1)` step is far too long for a component that lives at
+/// `atol`'s size: on Robertson's `y₂ ~ 10⁻¹²` it made `∂f₃/∂y₂` 0.45 instead of ~10⁻⁵,
+/// and Rodas5P's answer at `t = 4·10¹⁰` 80× off with status 0.
+struct Differences {
+    threshold: Vec<f64>,
+    factor: RefCell<Vec<f64>>,
+}
+
+impl Differences {
+    fn new(atol: &[f64], n: usize) -> Self {
+        // `atol` per component or one for all (checked with the options; 0 if absent)
+        let threshold = (0..n)
+            .map(|i| atol.get(if atol.len() == n { i } else { 0 }).copied().unwrap_or(0.0))
+            .collect();
+        Differences {
+            threshold,
+            factor: RefCell::new(vec![f64::EPSILON.sqrt(); n]),
+        }
+    }
+}
+
+/// The component of `d = f₁ − f₀` largest in magnitude: `(|d_i|, max(|f₀_i|, |f₁_i|))`.
+fn largest_difference(f0: &[f64], f1: &[f64]) -> (f64, f64) {
+    let mut best = (0.0, 0.0);
+    let mut first = true;
+    for (&a, &b) in f0.iter().zip(f1) {
+        let d = (b - a).abs();
+        if first || d > best.0 {
+            best = (d, a.abs().max(b.abs()));
+            first = false;
+        }
+    }
+    best
 }
 
 /// `y' = fun(t, y)` with `fun` a Python callable: reckon's `System` for a `Dyn` state.
@@ -47,6 +92,8 @@ struct PyModel<'py> {
     fun_calls: Cell<u64>,
     /// Calls of a callable `jac`.
     jac_calls: Cell<u64>,
+    /// The last non-finite return of `fun` at a trial state, as `reckon.NonFinite`.
+    non_finite: RefCell<Option<PyErr>>,
 }
 
 /// What the Python callbacks of one solve share: the interpreter, `numpy.asarray` (for
@@ -88,16 +135,22 @@ impl<'py> PyModel<'py> {
         self.host.keep(err)
     }
 
-    /// `out ← fun(t, x)`, or the error that stops the run.
+    /// `out ← fun(t, x)` with finite values, or the error that stops the run.
     fn call_fun(&self, t: f64, x: &[f64], out: &mut [f64]) -> PyResult<()> {
+        self.call_fun_values(t, x, out)?;
+        check_finite(self.host.py, out, t, "fun")
+    }
+
+    /// `out ← fun(t, x)`, finite or not; the error of a call that failed.
+    fn call_fun_values(&self, t: f64, x: &[f64], out: &mut [f64]) -> PyResult<()> {
         self.fun_calls.set(self.fun_calls.get() + 1);
         let y = PyArray1::from_slice(self.host.py, x);
         let r = self.fun.call1((t, y))?;
         self.read_vector(&r, out, t, "fun")
     }
 
-    /// Copy a returned vector of `n` values into `out`, refusing another shape and
-    /// non-finite values.
+    /// Copy a returned vector of `n` values into `out`, refusing another shape (finite
+    /// or not: the caller decides).
     fn read_vector(&self, r: &Bound<'py, PyAny>, out: &mut [f64], t: f64, who: &str) -> PyResult<()> {
         let arr = match r.cast::<PyArray1<f64>>() {
             Ok(a) => a.clone(),
@@ -110,7 +163,7 @@ impl<'py> PyModel<'py> {
                 })?;
                 if a.cast::<numpy::PyUntypedArray>()?.ndim() == 0 && self.n == 1 {
                     out[0] = a.extract::<f64>()?;
-                    return check_finite(self.host.py, out, t, who);
+                    return Ok(());
                 }
                 match a.cast::<PyArray1<f64>>() {
                     Ok(a) => a.clone(),
@@ -142,14 +195,24 @@ impl<'py> PyModel<'py> {
                 }
             }
         }
-        check_finite(self.host.py, out, t, who)
+        Ok(())
     }
 
     fn rhs_into(&self, t: f64, x: &[f64], out: &mut [f64]) {
-        if !self.failed()
-            && let Err(e) = self.call_fun(t, x, out)
-        {
-            self.keep(e);
+        if !self.failed() {
+            match self.call_fun_values(t, x, out) {
+                Ok(()) => {
+                    // the library rejects the trial and retries shorter; kept in case the
+                    // run ends on it (not when `x` itself was non-finite: a stage built
+                    // from an earlier non-finite `f`, which is the one to report)
+                    if x.iter().all(|v| v.is_finite())
+                        && let Err(e) = check_finite(self.host.py, out, t, "fun")
+                    {
+                        *self.non_finite.borrow_mut() = Some(e);
+                    }
+                }
+                Err(e) => self.keep(e),
+            }
         }
         if self.failed() {
             out.fill(f64::NAN);
@@ -166,23 +229,53 @@ impl<'py> PyModel<'py> {
                 let m = read_matrix(&r, &self.host.asarray, self.n, t)?;
                 jac.copy_from(&m);
             }
-            Jac::Differences => {
-                // forward differences, h_j = √ε·max(|x_j|, 1)
+            Jac::Differences(d) => {
+                const EPS: f64 = f64::EPSILON;
+                let (reject, small, big) = (EPS.powf(0.875), EPS.powf(0.75), EPS.powf(0.25));
                 let n = self.n;
-                let mut f0 = vec![0.0; n];
-                let mut f1 = vec![0.0; n];
+                let mut factor = d.factor.borrow_mut();
+                let (mut f0, mut f1, mut f2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
                 self.call_fun(t, x.as_slice(), &mut f0)?;
                 let mut xp = x.as_slice().to_vec();
                 for j in 0..n {
                     let xj = xp[j];
-                    let h = f64::EPSILON.sqrt() * xj.abs().max(1.0);
+                    let sign = if f0[j] >= 0.0 { 1.0 } else { -1.0 };
+                    let size = d.threshold[j].max(xj.abs());
+                    let scale = sign * if size > 0.0 { size } else { 1.0 };
+                    let step = |fac: f64| (xj + fac * scale) - xj;
+                    let mut h = step(factor[j]);
+                    while h == 0.0 && factor[j] < 1.0 {
+                        factor[j] = (factor[j] * 10.0).min(1.0);
+                        h = step(factor[j]);
+                    }
                     xp[j] = xj + h;
-                    let h = xp[j] - xj; // the step actually taken
                     self.call_fun(t, &xp, &mut f1)?;
+                    let (mut max_diff, mut size_f) = largest_difference(&f0, &f1);
+                    if max_diff < reject * size_f && factor[j] < 1.0 {
+                        // at f's roundoff: try a 10× longer step, kept if it resolves more
+                        let fac = (factor[j] * 10.0).min(1.0);
+                        let h_new = step(fac);
+                        xp[j] = xj + h_new;
+                        self.call_fun(t, &xp, &mut f2)?;
+                        let (diff_new, size_new) = largest_difference(&f0, &f2);
+                        if max_diff * size_new < diff_new * size_f {
+                            factor[j] = fac;
+                            h = h_new;
+                            (max_diff, size_f) = (diff_new, size_new);
+                            std::mem::swap(&mut f1, &mut f2);
+                        }
+                    }
                     xp[j] = xj;
                     for i in 0..n {
                         jac[(i, j)] = (f1[i] - f0[i]) / h;
                     }
+                    if max_diff < small * size_f {
+                        factor[j] *= 10.0;
+                    }
+                    if max_diff > big * size_f {
+                        factor[j] *= 0.1;
+                    }
+                    factor[j] = factor[j].clamp(1e3 * EPS, 1.0);
                 }
             }
         }
@@ -532,14 +625,14 @@ fn solve<'py>(
     let n = y0.len();
     let host = Host::new(py)?;
     let jac = match jac {
-        None => Jac::Differences,
+        None => Jac::Differences(Differences::new(&atol, n)),
         Some(j) if j.is_callable() => Jac::Callable(j),
         Some(j) => Jac::Constant(read_matrix(&j, &host.asarray, n, t0)?),
     };
     let jac_kind = match &jac {
         Jac::Callable(_) => "jac",
         Jac::Constant(_) => "constant jac",
-        Jac::Differences => "finite differences",
+        Jac::Differences(_) => "finite differences",
     };
     let opts = options(
         py, method, rtol, atol, first_step, max_step, fixed_step, t_eval, dense, max_steps,
@@ -551,6 +644,7 @@ fn solve<'py>(
         n,
         fun_calls: Cell::new(0),
         jac_calls: Cell::new(0),
+        non_finite: RefCell::new(None),
     };
     let problem = with_events(
         Problem::new(&model, DVector::from_column_slice(&y0), (t0, t1)),
@@ -559,6 +653,15 @@ fn solve<'py>(
     );
     let result = run(problem, method, &opts);
     if let Some(e) = model.host.fault.borrow_mut().take() {
+        return Err(e);
+    }
+    if let Err(reckon::Error::NonFinite {
+        quantity: reckon::error::Quantity::Derivative,
+        ..
+    }) = &result
+        && let Some(e) = model.non_finite.borrow_mut().take()
+    {
+        // the run ended on a non-finite `f`: the user's return, in its words
         return Err(e);
     }
     let terminal: Vec<u64> = events.iter().map(|e| e.1).collect();

@@ -379,6 +379,12 @@ fn param_names(fun: &Bound<'_, PyAny>, k: usize) -> Vec<String> {
         .collect()
 }
 
+/// The most states [`Model::new`] traces: its graph, Jacobian and solver take about
+/// 1.7 KiB per state on the 1-D Brusselator (1.69 GiB peak at 10⁶ states), so 10⁷ is
+/// what a large workstation holds; past it a request is refused up front rather than
+/// aborting the process on a failed allocation.
+const MAX_STATES: usize = 10_000_000;
+
 fn subscript(i: usize) -> String {
     i.to_string()
         .chars()
@@ -394,6 +400,16 @@ impl Model {
     fn new(py: Python<'_>, fun: Bound<'_, PyAny>, n: usize, params: Option<Bound<'_, PyAny>>) -> PyResult<Self> {
         if n == 0 {
             return Err(errors::invalid(py, "n", "a model needs at least one state".into()));
+        }
+        if n > MAX_STATES {
+            return Err(errors::invalid(
+                py,
+                "n",
+                format!(
+                    "{n} states: reckon traces models of up to {MAX_STATES} (the 10⁶-state \
+                     Brusselator's trace and sparse solve peak at 1.7 GiB)"
+                ),
+            ));
         }
         if !fun.is_callable() {
             return Err(PyTypeError::new_err("fun must be callable as fun(t, y, *params)"));

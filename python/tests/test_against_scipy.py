@@ -137,6 +137,48 @@ def test_robertson(method, robertson_reference):
     close(r.y.sum(axis=0), np.ones(11), 0, 1e-10)  # mass is conserved
 
 
+@pytest.fixture(scope="module")
+def robertson_4e10():
+    s = si.solve_ivp(robertson, (0.0, 4e10), [1.0, 0.0, 0.0], method="Radau", rtol=1e-11, atol=1e-16)
+    assert s.success
+    return s.y[:, -1]
+
+
+ROBERTSON_ATOL = [1e-8, 1e-12, 1e-8]
+
+
+@pytest.mark.parametrize("method", ["Rodas5P", "ExponentialEuler", "BDF", "ImplicitEuler", "Auto"])
+@pytest.mark.parametrize("rtol", [1e-2, 1e-3])
+def test_robertson_to_4e10_with_finite_differences(method, rtol, robertson_4e10):
+    # Robertson as scipy users write it: not traced, so the Jacobian is finite differences.
+    # A difference step of √ε·max(|y_j|, 1) on y₂ ~ 1e-13 once made ∂f₃/∂y₂ 0.45 instead of
+    # ~1e-5, and Rodas5P's y₁(4e10) 80× too large with status 0 (ExponentialEuler 150×),
+    # in ~30× as many steps as with the exact Jacobian.
+    kw = dict(method=method, rtol=rtol, atol=ROBERTSON_ATOL)
+    fd = reckon.solve_ivp(robertson, (0.0, 4e10), [1.0, 0.0, 0.0], trace=False, **kw)
+    exact = reckon.solve_ivp(robertson, (0.0, 4e10), [1.0, 0.0, 0.0], **kw)
+    assert fd.jacobian == "finite differences" and exact.jacobian == "traced"
+    assert fd.status == 0 and exact.status == 0
+    # a loose answer, within a few tolerances of the reference in every component
+    err = np.abs(fd.y[:, -1] - robertson_4e10) / (rtol * np.abs(robertson_4e10) + ROBERTSON_ATOL)
+    assert np.all(err < 3.0), err
+    # the differences' Jacobian is as good as the exact one for the step control
+    assert fd.stats["accepted"] <= 1.1 * exact.stats["accepted"] + 2
+
+
+def test_overflow_at_a_rejected_trial_is_a_loose_answer_not_an_error(vdp_reference):
+    # Van der Pol μ = 1000 at rtol 0.1: a trial step overflows fun (−inf); the step is
+    # rejected and retried shorter, as on the traced path, not blamed on fun
+    ref = vdp_reference.y[:, -1]
+    for trace in (False, True):
+        for jac in ((None, vdp_jac) if not trace else (None,)):
+            with np.errstate(over="ignore", invalid="ignore"):
+                r = reckon.solve_ivp(vdp, (0.0, 3000.0), [2.0, 0.0], method="Rodas5P", args=(1000.0,),
+                                     jac=jac, rtol=0.1, atol=1e-9, trace=trace)
+            assert r.status == 0 and r.traced == trace
+            assert abs(r.y[0, -1] - ref[0]) < 0.05, (trace, jac, r.y[:, -1], ref)
+
+
 @pytest.mark.parametrize("method", STIFF)
 def test_hires_against_the_test_set(method):
     r = reckon.solve_ivp(hires, (0.0, HIRES_T), HIRES_Y0, method=method, rtol=1e-9, atol=1e-12)

@@ -309,6 +309,11 @@ def test_bad_functions_raise():
     with pytest.raises(reckon.NonFinite):
         reckon.solve_ivp(lambda t, y: [-np.sqrt(y[0]) - 1.0], (0, 5), [1.0], method="BDF", trace=True)
 
+    # a size that cannot be traced is refused up front, not an abort or a panic
+    for n in (10**7 + 1, 10**12, 2**62):
+        with pytest.raises(reckon.InvalidInput, match="up to 10000000"):
+            reckon.Model(lambda t, y: -y, n)
+
     # a Model of another size, or with args
     m = reckon.Model(lambda t, y: -y, 2)
     with pytest.raises(ValueError):

@@ -328,6 +328,9 @@ def solve_ivp(
                 if any(b <= a for a, b in pairs) if tf > t0 else any(b >= a for a, b in pairs):
                     raise ValueError("Values in `t_eval` are not properly sorted.")
     evs = [] if events is None else _prepare_events(events, args)
+    if first_step is not None and name != "Euler" and float(first_step) > abs(tf - t0):
+        # scipy's check (Euler's first_step is its fixed step, not a first guess)
+        raise ValueError("`first_step` exceeds bounds.")
     if max_step is None or math.isinf(max_step):
         max_step = math.inf
 

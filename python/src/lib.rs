@@ -154,6 +154,13 @@ impl<'py> PyModel<'py> {
     fn read_vector(&self, r: &Bound<'py, PyAny>, out: &mut [f64], t: f64, who: &str) -> PyResult<()> {
         let arr = match r.cast::<PyArray1<f64>>() {
             Ok(a) => a.clone(),
+            Err(_) if r.is_none() => {
+                // numpy would read it as one NaN
+                return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                    "{who}(t, y) returned None (a missing return?), expected {} values at t = {t}",
+                    self.n
+                )));
+            }
             Err(_) => {
                 let a = self.host.asarray.call1((r, "float64")).map_err(|e| {
                     pyo3::exceptions::PyValueError::new_err(format!(

@@ -140,6 +140,28 @@ def test_nan_from_fun_is_nonfinite_with_fields():
         reckon.solve_ivp(lambda t, y: y / 0.0, (0.0, 1.0), [1.0])
 
 
+def test_none_from_fun_names_the_missing_return():
+    def f(t, y):
+        -y  # noqa: B018  (the return forgotten)
+
+    for y0 in ([1.0], [1.0, 2.0]):
+        with pytest.raises(ValueError, match="returned None"):
+            reckon.solve_ivp(f, (0.0, 1.0), y0, trace=False)
+
+
+def test_first_step_beyond_the_span_is_scipys_error():
+    with pytest.raises(ValueError, match="exceeds bounds") as scipy_error:
+        si.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], first_step=2.0)
+    for method in ("RK45", "BDF", "Rodas5P"):
+        with pytest.raises(ValueError, match="exceeds bounds") as info:
+            reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], method=method, first_step=2.0)
+        assert str(info.value) == str(scipy_error.value)
+    # backward, and a first step that fits
+    with pytest.raises(ValueError, match="exceeds bounds"):
+        reckon.solve_ivp(lambda t, y: -y, (1.0, 0.0), [1.0], first_step=1.5)
+    assert reckon.solve_ivp(lambda t, y: -y, (1.0, 0.0), [1.0], first_step=0.5).success
+
+
 def test_nan_from_jac():
     with pytest.raises(reckon.NonFinite) as info:
         reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], method="Rodas5P", jac=lambda t, y: [[np.nan]])

@@ -774,11 +774,16 @@ where
     <DefaultAllocator as Allocator<D>>::Buffer<f64>: Send,
 {
     let method = fill.method;
-    let result = py.detach(|| {
-        let sys = traced::TracedSystem::new(m);
+    let (result, interrupted) = py.detach(|| {
+        let sys = traced::TracedSystem::watched(m);
         let x0 = OVector::<f64, D>::from_iterator_generic(D::from_usize(y0.len()), Const::<1>, y0.iter().copied());
-        run(Problem::new(&sys, x0, (t0, t1)), method, opts)
+        let result = run(Problem::new(&sys, x0, (t0, t1)), method, opts);
+        (result, sys.interrupted())
     });
+    if let Some(e) = interrupted {
+        // Ctrl-C (or another signal handler that raised) stopped the run
+        return Err(e);
+    }
     fill_result(py, fill, result, (t0, y0))
 }
 

@@ -730,6 +730,46 @@ pub(crate) struct TracedSystem {
     rhs: RefCell<CompiledVector>,
     jac: RefCell<CompiledJacobian>,
     dt: Option<RefCell<CompiledVector>>,
+    /// Python's signals, checked while the GIL is released ([`watched`](Self::watched)).
+    watch: Option<Watch>,
+}
+
+/// Python's pending signals (Ctrl-C) looked at every [`Watch::EVERY`] state values of
+/// `f` evaluated (every ~10⁻² s: 10 calls of `f` at 10⁵ states, 3·10⁵ at 3), the GIL
+/// taken for the look only. Once a handler raised, every `f` is NaN, so the run stops at
+/// once (a NaN at the start of a step is an error), and the solve raises what it raised.
+struct Watch {
+    left: Cell<usize>,
+    raised: RefCell<Option<PyErr>>,
+}
+
+impl Watch {
+    const EVERY: usize = 1 << 20;
+
+    /// Count `n` values; whether the run is to stop.
+    #[inline]
+    fn stop(&self, n: usize) -> bool {
+        match self.left.get().checked_sub(n) {
+            Some(left) => {
+                self.left.set(left);
+                false
+            }
+            None => self.look(),
+        }
+    }
+
+    #[cold]
+    fn look(&self) -> bool {
+        if self.raised.borrow().is_none()
+            && let Err(e) = Python::attach(|py| py.check_signals())
+        {
+            *self.raised.borrow_mut() = Some(e);
+        }
+        let stop = self.raised.borrow().is_some();
+        // once stopped, every later call comes here (nothing left to count)
+        self.left.set(if stop { 0 } else { Self::EVERY });
+        stop
+    }
 }
 
 impl TracedSystem {
@@ -738,7 +778,25 @@ impl TracedSystem {
             rhs: RefCell::new(m.rhs.clone()),
             jac: RefCell::new(m.jac.clone()),
             dt: m.dt.clone().map(RefCell::new),
+            watch: None,
         }
+    }
+
+    /// [`new`](Self::new) for a solve that runs with the GIL released: it looks at
+    /// Python's signals now and then, so Ctrl-C stops it ([`Watch`]).
+    pub(crate) fn watched(m: &Model) -> Self {
+        TracedSystem {
+            watch: Some(Watch {
+                left: Cell::new(Watch::EVERY),
+                raised: RefCell::new(None),
+            }),
+            ..Self::new(m)
+        }
+    }
+
+    /// What a signal handler raised during the solve, if one did.
+    pub(crate) fn interrupted(&self) -> Option<PyErr> {
+        self.watch.as_ref().and_then(|w| w.raised.borrow_mut().take())
     }
 }
 
@@ -749,6 +807,12 @@ where
     DefaultAllocator: Allocator<D>,
 {
     fn rhs(&self, t: f64, x: &OVector<f64, D>, _u: &[f64], dx: &mut OVector<f64, D>) {
+        if let Some(w) = &self.watch
+            && w.stop(x.len())
+        {
+            dx.fill(f64::NAN);
+            return;
+        }
         if self
             .rhs
             .borrow_mut()

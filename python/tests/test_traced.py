@@ -3,6 +3,9 @@ function (its values, central differences and complex steps), traced solves agai
 callback mode, the untraceable bodies and their fallback, bad functions, and the GIL."""
 
 import math
+import subprocess
+import sys
+import textwrap
 import threading
 import time
 
@@ -348,3 +351,22 @@ def test_gil_released_while_a_traced_model_integrates():
     # (a few ticks at its edges); released, it runs throughout
     assert window["end"] - window["start"] > 0.02
     assert inside > 1000, (inside, window["end"] - window["start"])
+
+
+def test_ctrl_c_stops_a_traced_solve():
+    # the GIL is released while a traced model integrates; Python's signals are still
+    # looked at, so SIGINT stops a run of ~10¹² steps with KeyboardInterrupt (in a child
+    # process, so that a failure is a timeout here, not a hung suite)
+    code = textwrap.dedent("""
+        import os, signal, threading, time, reckon
+        m = reckon.Model(lambda t, y: -y, 1)
+        threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+        t0 = time.perf_counter()
+        try:
+            reckon.solve_ivp(m, (0, 1e6), [1.0], max_step=1e-6, max_steps=10**13, t_eval=[1e6])
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted")
+    """)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.stdout.strip() == "interrupted", (r.stdout, r.stderr)

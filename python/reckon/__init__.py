@@ -14,6 +14,7 @@ See docs/python.md for the scipy-to-reckon table of names.
 from __future__ import annotations
 
 import math
+import operator
 import warnings
 from typing import Any, Callable, Sequence
 
@@ -154,6 +155,19 @@ def _method_name(method: Any) -> str:
     if name in _INSTEAD:
         raise ValueError(f"reckon has no method {name!r}: {_INSTEAD[name]}")
     raise ValueError(f"unknown method {name!r}: reckon offers {', '.join(METHODS)}")
+
+
+def _count(value: Any, what: str) -> int:
+    """A count of at least 1 (any integer type), else ``InvalidInput`` naming ``what``."""
+    try:
+        v = operator.index(value)
+    except TypeError:
+        reason = f"an integer is needed, got {type(value).__name__}"
+        raise InvalidInput(f"invalid {what}: {reason}", what=what, reason=reason) from None
+    if not 1 <= v < 2**63:
+        reason = f"must be at least 1 and below 2^63, got {v}"
+        raise InvalidInput(f"invalid {what}: {reason}", what=what, reason=reason)
+    return v
 
 
 def _tolerance(value: Any, n: int, what: str) -> list[float]:
@@ -331,6 +345,8 @@ def solve_ivp(
     if first_step is not None and name != "Euler" and float(first_step) > abs(tf - t0):
         # scipy's check (Euler's first_step is its fixed step, not a first guess)
         raise ValueError("`first_step` exceeds bounds.")
+    if max_steps is not None:
+        max_steps = _count(max_steps, "max_steps")
     if max_step is None or math.isinf(max_step):
         max_step = math.inf
 

@@ -23,7 +23,7 @@ mod traced;
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::intern;
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyDict, PyList, PyTuple};
 use reckon::linalg::LuDim;
 use reckon::methods::Method;
 use reckon::methods::{Auto, Bdf, Euler, ExponentialEuler, ImplicitEuler, Rk45, Rodas5P};
@@ -439,6 +439,59 @@ impl DenseOutput {
 
 #[pymethods]
 impl DenseOutput {
+    /// Pickling (joblib, multiprocessing): the polynomials as plain data, rebuilt by
+    /// [`_restore`](Self::_restore).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let py = slf.py();
+        let d = slf.get();
+        let segments: Vec<(f64, f64, f64, Vec<f64>)> =
+            d.segments.iter().map(|s| (s.t0, s.h, s.t1, s.c.clone())).collect();
+        let args = (d.n, d.t_min, d.t_max, d.forward, segments).into_pyobject(py)?;
+        Ok((slf.get_type().getattr("_restore")?, args))
+    }
+
+    /// The inverse of `__reduce__`, checking what it is given (pickles are data from
+    /// outside): `n ≥ 1`, each step's coefficients a non-empty multiple of `n`, every
+    /// value finite, the steps non-zero, in the direction of `forward` and in order.
+    #[staticmethod]
+    fn _restore(
+        py: Python<'_>,
+        n: usize,
+        t_min: f64,
+        t_max: f64,
+        forward: bool,
+        segments: Vec<(f64, f64, f64, Vec<f64>)>,
+    ) -> PyResult<Self> {
+        let bad = |reason: &str| Err(errors::invalid(py, "DenseOutput", reason.into()));
+        if n == 0 || !(t_min.is_finite() && t_max.is_finite() && t_min <= t_max) {
+            return bad("n ≥ 1 and finite t_min ≤ t_max are needed");
+        }
+        let mut last: Option<f64> = None;
+        let mut out = Vec::with_capacity(segments.len());
+        for (t0, h, t1, c) in segments {
+            let ordered = last.is_none_or(|l| if forward { t1 >= l } else { t1 <= l });
+            if c.is_empty()
+                || c.len() % n != 0
+                || !(t0.is_finite() && h.is_finite() && t1.is_finite())
+                || h == 0.0
+                || (h > 0.0) != forward
+                || !ordered
+                || c.iter().any(|v| !v.is_finite())
+            {
+                return bad("a step's polynomial is not one DenseOutput writes");
+            }
+            last = Some(t1);
+            out.push(Segment { t0, h, t1, c });
+        }
+        Ok(DenseOutput {
+            n,
+            segments: out,
+            t_min,
+            t_max,
+            forward,
+        })
+    }
+
     fn __call__<'py>(&self, py: Python<'py>, t: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
         if self.segments.is_empty() {
             return Err(pyo3::exceptions::PyValueError::new_err(

@@ -397,10 +397,32 @@ impl Model {
     /// Trace `fun(t, y, *params)` for a state of `n` components.
     #[new]
     #[pyo3(signature = (fun, n, params=None))]
-    fn new(py: Python<'_>, fun: Bound<'_, PyAny>, n: usize, params: Option<Bound<'_, PyAny>>) -> PyResult<Self> {
-        if n == 0 {
-            return Err(errors::invalid(py, "n", "a model needs at least one state".into()));
-        }
+    fn new(
+        py: Python<'_>,
+        fun: Bound<'_, PyAny>,
+        n: Bound<'_, PyAny>,
+        params: Option<Bound<'_, PyAny>>,
+    ) -> PyResult<Self> {
+        // any Python integer: a negative or huge one is `InvalidInput`, not an OverflowError
+        let none = || errors::invalid(py, "n", "a model needs at least one state".into());
+        let n = match n.extract::<i64>() {
+            Ok(v) if v >= 1 => usize::try_from(v).unwrap_or(usize::MAX),
+            Ok(_) => return Err(none()),
+            Err(_) if n.is_instance_of::<pyo3::types::PyInt>() => {
+                if n.lt(0)? {
+                    return Err(none());
+                }
+                usize::MAX
+            }
+            Err(_) => {
+                let kind = n.get_type().name().map(|s| s.to_string()).unwrap_or_default();
+                return Err(errors::invalid(
+                    py,
+                    "n",
+                    format!("the number of states must be an integer, got {kind}"),
+                ));
+            }
+        };
         if n > MAX_STATES {
             return Err(errors::invalid(
                 py,

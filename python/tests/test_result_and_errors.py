@@ -162,6 +162,33 @@ def test_first_step_beyond_the_span_is_scipys_error():
     assert reckon.solve_ivp(lambda t, y: -y, (1.0, 0.0), [1.0], first_step=0.5).success
 
 
+@pytest.mark.parametrize("bad", [0, -1, 2**64, 2**70, 1.5, "10"])
+def test_max_steps_is_a_count_named_in_the_error(bad):
+    with pytest.raises(reckon.InvalidInput) as info:
+        reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], max_steps=bad)
+    assert info.value.what == "max_steps"
+
+
+def test_a_dense_result_pickles_and_deep_copies():
+    import copy
+
+    r = reckon.solve_ivp(oscillator, (0.0, 3.0), [1.0, 0.0], dense_output=True, rtol=1e-8, atol=1e-10)
+    for back in (pickle.loads(pickle.dumps(r)), copy.deepcopy(r)):
+        ts = np.linspace(-0.5, 3.5, 41)
+        np.testing.assert_array_equal(back.sol(ts), r.sol(ts))
+        assert (back.sol.t_min, back.sol.t_max) == (r.sol.t_min, r.sol.t_max)
+        np.testing.assert_array_equal(back.y, r.y)
+    # a pickle is data from outside: a malformed one is refused, not a crash
+    make, (n, lo, hi, fwd, segs) = r.sol.__reduce__()
+    assert len(segs) > 1
+    for bad in ((0, lo, hi, fwd, segs), (n, lo, hi, fwd, [(0.0, 0.1, 0.1, [1.0])]),
+                (n, lo, hi, fwd, [(0.0, 0.1, 0.1, [])]), (n, lo, hi, not fwd, segs),
+                (n, lo, hi, fwd, segs[::-1]), (n, hi + 1.0, hi, fwd, segs),
+                (n, lo, hi, fwd, [(0.0, 0.1, 0.1, [1.0, float("nan")])])):
+        with pytest.raises(reckon.InvalidInput, match="DenseOutput"):
+            make(*bad)
+
+
 def test_nan_from_jac():
     with pytest.raises(reckon.NonFinite) as info:
         reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], method="Rodas5P", jac=lambda t, y: [[np.nan]])

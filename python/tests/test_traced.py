@@ -313,9 +313,15 @@ def test_bad_functions_raise():
         reckon.solve_ivp(lambda t, y: [-np.sqrt(y[0]) - 1.0], (0, 5), [1.0], method="BDF", trace=True)
 
     # a size that cannot be traced is refused up front, not an abort or a panic
-    for n in (10**7 + 1, 10**12, 2**62):
+    for n in (10**7 + 1, 10**12, 2**62, 2**70):
         with pytest.raises(reckon.InvalidInput, match="up to 10000000"):
             reckon.Model(lambda t, y: -y, n)
+    for n in (0, -1, -(2**70)):
+        with pytest.raises(reckon.InvalidInput, match="at least one state"):
+            reckon.Model(lambda t, y: -y, n)
+    with pytest.raises(reckon.InvalidInput, match="integer, got float"):
+        reckon.Model(lambda t, y: -y, 2.0)
+    assert reckon.Model(lambda t, y: -y, np.int64(2)).n == 2
 
     # a Model of another size, or with args
     m = reckon.Model(lambda t, y: -y, 2)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import operator
+import os
 import warnings
 from typing import Any, Callable, Sequence
 
@@ -155,6 +156,29 @@ def _method_name(method: Any) -> str:
     if name in _INSTEAD:
         raise ValueError(f"reckon has no method {name!r}: {_INSTEAD[name]}")
     raise ValueError(f"unknown method {name!r}: reckon offers {', '.join(METHODS)}")
+
+
+#: The methods that need `∂f/∂y`: called back, it is a dense n×n matrix.
+_DENSE_JACOBIAN = frozenset(("BDF", "Rodas5P", "ImplicitEuler", "ExponentialEuler", "Auto"))
+
+
+def _refuse_dense(n: int, name: str, trace_error: str | None) -> None:
+    """Refuse up front a called-back run whose dense Jacobian, iteration matrix and its
+    LU (three n×n arrays of float64) need more than this machine's physical memory, which
+    would otherwise abort the process on a failed allocation."""
+    need = 3 * 8 * n * n
+    try:
+        have = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return
+    if need > have:
+        why = f" ({trace_error})" if trace_error else ""
+        reason = (
+            f"{name} on a called-back fun of {n} states needs dense {n}×{n} matrices, "
+            f"{need / 2**30:.0f} GiB against this machine's {have / 2**30:.0f} GiB; trace fun "
+            f"(reckon.Model: the sparse path) or use an explicit method{why}"
+        )
+        raise InvalidInput(f"invalid method: {reason}", what="method", reason=reason)
 
 
 def _count(value: Any, what: str) -> int:
@@ -363,6 +387,8 @@ def solve_ivp(
     if model is not None:
         _solve_traced(model, t0, tf, y0.tolist(), name, rtol_v, atol_v, *common, result)
     else:
+        if name in _DENSE_JACOBIAN:
+            _refuse_dense(n, name, trace_error)
         _solve(fun, t0, tf, y0.tolist(), name, rtol_v, atol_v, jac, *common, result)
     status = result["status"]
     if t_eval_list is not None and status >= 0:

@@ -189,6 +189,18 @@ def test_a_dense_result_pickles_and_deep_copies():
             make(*bad)
 
 
+def test_a_dense_jacobian_beyond_memory_is_refused_up_front():
+    # called back (not traced), an implicit method needs dense n×n matrices: at 10⁵
+    # states 240 GB, refused before any allocation (it aborted the process)
+    y0 = np.ones(100_000)
+    for method in ("BDF", "Rodas5P", "Auto"):
+        with pytest.raises(reckon.InvalidInput, match="dense 100000×100000") as info:
+            reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), y0, method=method, trace=False)
+        assert info.value.what == "method" and "reckon.Model" in info.value.reason
+    # the explicit methods need no Jacobian, and the traced model has the sparse path
+    assert reckon.solve_ivp(lambda t, y: -y, (0.0, 1e-3), y0, method="RK45", trace=False).success
+
+
 def test_nan_from_jac():
     with pytest.raises(reckon.NonFinite) as info:
         reckon.solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], method="Rodas5P", jac=lambda t, y: [[np.nan]])
